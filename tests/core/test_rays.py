@@ -1,0 +1,227 @@
+"""RayScene against a brute-force float64 Möller–Trumbore."""
+
+import warnings
+
+import numpy as np
+import pytest
+import trimesh
+
+from core import rays
+from core.rays import RayScene
+from tests.core.brute import edge_margin, moller_trumbore
+
+
+def random_soup(rng, n_tri=300, scale=1.0, offset=0.0):
+    centers = rng.uniform(-1, 1, (n_tri, 1, 3))
+    tri = centers + rng.normal(scale=0.15, size=(n_tri, 3, 3))
+    v = (tri.reshape(-1, 3) * scale) + offset
+    return v, np.arange(len(v)).reshape(-1, 3)
+
+
+def random_rays(rng, n, scale=1.0, offset=0.0):
+    o = rng.uniform(-1.5, 1.5, (n, 3)) * scale + offset
+    d = rng.normal(size=(n, 3))
+    return o, d
+
+
+def assert_matches_brute(scene, v, f, o, d, tmin=0.0, tmax=np.inf, rtol=1e-6):
+    got = scene.intersect(o, d, max_dist=None if np.isinf(np.max(tmax)) else tmax,
+                          min_dist=tmin)
+    t_ref, f_ref = moller_trumbore(o, d, v, f, tmin, tmax)
+    size = np.ptp(v, axis=0).max() if len(v) else 1.0
+    # Rays whose reference hit is within round-off of an edge, or of the range ends,
+    # may go either way in float32; everything else must agree exactly.
+    dn = d / np.linalg.norm(d, axis=1, keepdims=True)
+    robust = np.ones(len(o), bool)
+    hit_ref = f_ref >= 0
+    robust[hit_ref] = edge_margin(o[hit_ref] + dn[hit_ref] * t_ref[hit_ref, None], v, f, f_ref[hit_ref]) > 1e-4
+    tmax_b = np.broadcast_to(tmax, t_ref.shape)
+    with np.errstate(invalid="ignore"):
+        near_end = np.abs(t_ref - tmax_b) < 1e-4 * size
+    robust &= ~near_end
+    assert robust.mean() > 0.9
+    np.testing.assert_array_equal(got.face[robust] >= 0, hit_ref[robust])
+    both = robust & hit_ref
+    np.testing.assert_allclose(got.t[both], t_ref[both], rtol=rtol, atol=rtol * size)
+    # A different face is fine only at the same distance (coplanar duplicates).
+    same_t = np.isclose(got.t[both], t_ref[both], rtol=rtol, atol=rtol * size)
+    assert same_t.all()
+    assert np.isinf(got.t[~got.hit]).all() and (got.face[~got.hit] == -1).all()
+    return got, t_ref, f_ref
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(7)
+
+
+def test_random_soup_matches_brute_force(rng):
+    v, f = random_soup(rng)
+    o, d = random_rays(rng, 3000)
+    scene = RayScene(v, f)
+    got, t_ref, f_ref = assert_matches_brute(scene, v, f, o, d)
+    assert 0.2 < got.hit.mean() < 0.95  # the test sees both hits and misses
+    hit = got.hit
+    # Normals are unit and belong to the reported face; barycentrics reproduce the hit point.
+    np.testing.assert_allclose(np.linalg.norm(got.normal[hit], axis=1), 1.0, rtol=1e-12)
+    tri = v[f[got.face[hit]]]
+    ref_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    np.testing.assert_allclose(got.normal[hit], ref_n / np.linalg.norm(ref_n, axis=1, keepdims=True), atol=1e-9)
+    u, w = got.bary[hit, 0], got.bary[hit, 1]
+    p_bary = (1 - u - w)[:, None] * tri[:, 0] + u[:, None] * tri[:, 1] + w[:, None] * tri[:, 2]
+    np.testing.assert_allclose(p_bary, got.points(o, d)[hit], atol=1e-9)
+
+
+def test_max_and_min_distance_per_ray(rng):
+    v, f = random_soup(rng)
+    o, d = random_rays(rng, 2000)
+    tmax = rng.uniform(0.0, 2.0, len(o))
+    tmin = rng.uniform(0.0, 0.5, len(o))
+    scene = RayScene(v, f)
+    assert_matches_brute(scene, v, f, o, d, tmin=tmin, tmax=tmax)
+    occ = scene.occluded(o, d, max_dist=tmax, min_dist=tmin)
+    _, f_ref = moller_trumbore(o, d, v, f, tmin, tmax)
+    got = scene.intersect(o, d, max_dist=tmax, min_dist=tmin)
+    np.testing.assert_array_equal(occ, got.hit)
+    assert (occ == (f_ref >= 0)).mean() > 0.99
+
+
+def test_threads_give_identical_hits(rng, monkeypatch):
+    v, f = random_soup(rng, n_tri=2000)
+    o, d = random_rays(rng, 100_000)
+    monkeypatch.setattr(rays, "_MIN_RAYS_PER_CHUNK", 1000)
+    one = RayScene(v, f, threads=1).intersect(o, d)
+    two = RayScene(v, f, threads=2).intersect(o, d)
+    np.testing.assert_array_equal(one.face, two.face)
+    np.testing.assert_array_equal(one.t, two.t)
+
+
+def test_closed_mesh_from_inside_always_hits():
+    sphere = trimesh.creation.icosphere(subdivisions=3)
+    n = 5000
+    d = np.random.default_rng(1).normal(size=(n, 3))
+    got = RayScene(sphere.vertices, sphere.faces).intersect(np.zeros((n, 3)), d)
+    assert got.hit.all()  # watertight: no ray escapes between triangles
+    # every hit is on the outward-facing side: normal and direction agree
+    assert (np.einsum("ij,ij->i", got.normal, d) > 0).all()
+    r = np.linalg.norm(got.points(np.zeros((n, 3)), d), axis=1)
+    assert r.max() <= 1.0 + 1e-9 and r.min() > 0.98
+
+
+def test_grazing_rays_are_consistent():
+    # A ray in the plane of a triangle: Embree may report either; a reported hit must be real.
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [0, 1, 1]], float)
+    f = np.array([[0, 1, 2], [3, 4, 5]])
+    o = np.array([[-1, 0.2, 0.0], [-1, 0.2, 1e-9], [-1, 0.2, 0.5]])
+    d = np.array([[1, 0, 0], [1, 0, 0], [1, 0, 0]], float)
+    got = RayScene(v, f).intersect(o, d)
+    assert not got.hit[2]  # between the two planes: nothing
+    for i in np.flatnonzero(got.hit):
+        p = got.points(o, d)[i]
+        assert edge_margin(p[None], v, f, got.face[i:i + 1])[0] > -1e-6
+        assert abs(p[2] - v[f[got.face[i]], 2].mean()) < 1e-6
+
+
+def test_origin_on_surface():
+    sheet_a = np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], float)
+    sheet_b = sheet_a + [0, 0, 0.5]
+    v = np.vstack([sheet_a, sheet_b])
+    f = np.array([[0, 1, 2], [3, 4, 5]])
+    o = np.array([[0, 0, 0.0], [0, 0, 0.0]])
+    d = np.array([[0, 0, 1.0], [0, 0, -1.0]])
+    scene = RayScene(v, f)
+    # Leaving the surface with a small min_dist: the next sheet, exactly.
+    got = scene.intersect(o, d, min_dist=1e-6)
+    assert got.face[0] == 1 and got.t[0] == pytest.approx(0.5, abs=1e-12)
+    assert not got.hit[1]
+    # Without min_dist the surface the origin lies on counts, at distance 0.
+    got0 = scene.intersect(o[:1], d[:1])
+    assert got0.face[0] in (0, 1)
+    if got0.face[0] == 0:
+        assert got0.t[0] == pytest.approx(0.0, abs=1e-6)
+
+
+def test_degenerate_and_duplicate_triangles(rng):
+    v, f = random_soup(rng, n_tri=200)
+    # zero-area triangles (repeated vertex, collinear vertices) and exact duplicates
+    extra_v = np.array([[0, 0, 0], [0, 0, 0], [1, 1, 1], [0, 0, 0], [1, 1, 1], [2, 2, 2]], float)
+    v2 = np.vstack([v, extra_v])
+    k = len(v)
+    f2 = np.vstack([f, [[k, k + 1, k + 2], [k + 3, k + 4, k + 5]], f[:50]])
+    o, d = random_rays(rng, 2000)
+    got, _, _ = assert_matches_brute(RayScene(v2, f2), v2, f2, o, d)
+    assert not np.isin(got.face, [len(f), len(f) + 1]).any()
+
+
+def test_empty_scene():
+    scene = RayScene(np.zeros((0, 3)), np.zeros((0, 3), int))
+    got = scene.intersect(np.zeros((4, 3)), np.ones((4, 3)))
+    assert not got.hit.any() and np.isinf(got.t).all()
+    assert not scene.occluded(np.zeros((4, 3)), np.ones((4, 3))).any()
+    none = scene.intersect(np.zeros((0, 3)), np.zeros((0, 3)))
+    assert none.t.shape == (0,) and none.normal.shape == (0, 3)
+
+
+@pytest.mark.parametrize("scale,offset", [(1e-3, 0.0), (1e3, 0.0), (1.0, 1e4)])
+def test_tiny_huge_and_far_scenes(rng, scale, offset):
+    v, f = random_soup(rng, scale=scale, offset=offset)
+    o, d = random_rays(rng, 2000, scale=scale, offset=offset)
+    assert_matches_brute(RayScene(v, f), v, f, o, d, rtol=1e-5)
+
+
+def test_update_moves_the_scene(rng):
+    v, f = random_soup(rng)
+    scene = RayScene(v, f)
+    o, d = random_rays(rng, 1000)
+    v_new = v + rng.normal(scale=0.05, size=v.shape)
+    scene.update(v_new)
+    assert_matches_brute(scene, v_new, f, o, d)
+    with pytest.raises(ValueError, match="vertices"):
+        scene.update(v_new[:-1])
+
+
+@pytest.mark.parametrize(
+    "vertices,faces,match",
+    [
+        (np.full((3, 3), np.nan), [[0, 1, 2]], "vertices contains NaN"),
+        (np.zeros((3, 2)), [[0, 1, 2]], r"vertices must have shape \(n, 3\)"),
+        (np.zeros((3, 3)), [[0, 1, 3]], "faces index vertices"),
+        (np.zeros((3, 3)), [[0, 1]], r"faces must have shape \(m, 3\)"),
+        (np.zeros((3, 3)), [[0, 1, -1]], "faces index vertices"),
+    ],
+)
+def test_bad_scene_input(vertices, faces, match):
+    with pytest.raises(ValueError, match=match):
+        RayScene(vertices, faces)
+
+
+def test_bad_ray_input():
+    scene = RayScene(np.eye(3), [[0, 1, 2]])
+    with pytest.raises(ValueError, match="origins contains NaN"):
+        scene.intersect([[np.nan, 0, 0]], [[1, 0, 0]])
+    with pytest.raises(ValueError, match="zero-length"):
+        scene.intersect([[0, 0, 0]], [[0, 0, 0]])
+    with pytest.raises(ValueError, match="same shape"):
+        scene.intersect(np.zeros((2, 3)), np.ones((3, 3)))
+    with pytest.raises(ValueError, match="max_dist contains NaN"):
+        scene.intersect([[0, 0, 0]], [[1, 0, 0]], max_dist=np.nan)
+
+
+def test_numpy_fallback_gives_the_same_hits(rng, monkeypatch):
+    v, f = random_soup(rng, n_tri=100)
+    o, d = random_rays(rng, 500)
+    embree = RayScene(v, f).intersect(o, d, max_dist=2.0)
+    monkeypatch.setattr(rays, "HAVE_EMBREE", False)
+    monkeypatch.setattr(rays, "_warned_fallback", False)
+    with pytest.warns(RuntimeWarning, match="embreex is not installed"):
+        fallback_scene = RayScene(v, f)
+    assert fallback_scene.backend == "numpy"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # one warning per process, not per scene
+        RayScene(v, f)
+    numpy_hits = fallback_scene.intersect(o, d, max_dist=2.0)
+    t_ref, f_ref = moller_trumbore(o, d, v, f, 0.0, 2.0)
+    agree = (numpy_hits.face >= 0) == (embree.face >= 0)
+    assert agree.mean() > 0.995
+    both = agree & embree.hit
+    np.testing.assert_allclose(numpy_hits.t[both], embree.t[both], rtol=1e-6, atol=1e-9)
