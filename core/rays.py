@@ -243,7 +243,7 @@ class RayScene:
         if chunks == 1 or self.threads == 1:
             return [fn(slice(0, n))]
         bounds = np.linspace(0, n, chunks + 1).astype(int)
-        slices = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])]
+        slices = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
         return list(_get_pool(self.threads).map(fn, slices))
 
     def _trace_embree(self, o, d, tmax):
