@@ -1,0 +1,22 @@
+"""Blender glue: registration of properties, operators, panels, preferences and the CLI."""
+
+import bpy
+
+from ..operators import tagging
+from . import cli, panels, preferences, properties
+
+_classes = (*properties.CLASSES, *preferences.CLASSES, *tagging.CLASSES, *panels.CLASSES)
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(_classes)
+
+
+def register():
+    _register_classes()
+    properties.attach()
+    preferences.apply_thread_setting()
+    cli.register()
+
+
+def unregister():
+    cli.unregister()
+    properties.detach()
+    _unregister_classes()

@@ -1,0 +1,68 @@
+"""The one place mesh data crosses between Blender and numpy (foreach_get/foreach_set only)."""
+
+from dataclasses import dataclass
+
+import bpy
+import numpy as np
+
+
+@dataclass
+class MeshArrays:
+    vertices: np.ndarray  # (n, 3) float64, world space unless read with world=False
+    triangles: np.ndarray  # (m, 3) int64, loop triangles of the evaluated mesh
+    triangle_polygon: np.ndarray  # (m,) polygon each triangle came from
+
+
+def _matrix(obj) -> np.ndarray:
+    return np.array(obj.matrix_world, dtype=np.float64)
+
+
+def read_mesh(obj, depsgraph=None, world=True) -> MeshArrays:
+    """Evaluated geometry (modifiers, armature, cloth applied) of a mesh object."""
+    if depsgraph is None:
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+    evaluated = obj.evaluated_get(depsgraph)
+    mesh = evaluated.to_mesh()
+    try:
+        n = len(mesh.vertices)
+        co = np.empty(n * 3, dtype=np.float32)
+        mesh.vertices.foreach_get("co", co)
+        mesh.calc_loop_triangles()
+        m = len(mesh.loop_triangles)
+        tris = np.empty(m * 3, dtype=np.int32)
+        mesh.loop_triangles.foreach_get("vertices", tris)
+        poly = np.empty(m, dtype=np.int32)
+        mesh.loop_triangles.foreach_get("polygon_index", poly)
+    finally:
+        evaluated.to_mesh_clear()
+    v = co.reshape(-1, 3).astype(np.float64)
+    if world:
+        mw = np.array(evaluated.matrix_world, dtype=np.float64)
+        v = v @ mw[:3, :3].T + mw[:3, 3]
+    return MeshArrays(v, tris.reshape(-1, 3).astype(np.int64), poly.astype(np.int64))
+
+
+def fill_mesh(mesh, vertices, faces) -> None:
+    """Replace a mesh datablock's geometry with triangles (vertices in the object's space)."""
+    v = np.ascontiguousarray(vertices, dtype=np.float32).reshape(-1)
+    f = np.ascontiguousarray(faces, dtype=np.int32).reshape(-1)
+    mesh.clear_geometry()
+    mesh.vertices.add(len(v) // 3)
+    mesh.vertices.foreach_set("co", v)
+    mesh.loops.add(len(f))
+    mesh.loops.foreach_set("vertex_index", f)
+    mesh.polygons.add(len(f) // 3)
+    mesh.polygons.foreach_set("loop_start", np.arange(0, len(f), 3, dtype=np.int32))
+    mesh.update()
+    if mesh.validate(verbose=False):
+        raise RuntimeError(f"mesh {mesh.name!r} had invalid geometry that Blender had to repair")
+
+
+def new_mesh_object(name, vertices, faces, collection, smooth=True):
+    mesh = bpy.data.meshes.new(name)
+    fill_mesh(mesh, vertices, faces)
+    if smooth:
+        mesh.shade_smooth()
+    obj = bpy.data.objects.new(name, mesh)
+    collection.objects.link(obj)
+    return obj

@@ -1,0 +1,1 @@
+"""Thin bpy operators: each reads the scene once, calls core, writes once."""

@@ -1,0 +1,133 @@
+"""Tag objects as body or garment and order the garment layers."""
+
+import bpy
+from bpy.props import EnumProperty, StringProperty
+
+from ..addon import scene_roles
+
+
+def _selected_meshes(context):
+    return [o for o in context.selected_objects if o.type == "MESH"]
+
+
+class DEFORMRT_OT_tag_body(bpy.types.Operator):
+    """Make the active mesh the body the garments are worn on (layer 0)"""
+
+    bl_idname = "deformrt.tag_body"
+    bl_label = "Tag as Body"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.active_object
+        if obj is None or obj.type != "MESH":
+            cls.poll_message_set("Select a mesh object to use as the body")
+            return False
+        return True
+
+    def execute(self, context):
+        obj = context.active_object
+        previous = [o for o in scene_roles.bodies(context.scene) if o is not obj]
+        for o in previous:
+            o.deformrt.role = "NONE"
+        obj.deformrt.role = "BODY"
+        obj.deformrt.layer = 0
+        note = f" (was: {', '.join(o.name for o in previous)})" if previous else ""
+        self.report({"INFO"}, f"Body: {obj.name}{note}")
+        return {"FINISHED"}
+
+
+class DEFORMRT_OT_tag_garments(bpy.types.Operator):
+    """Make the selected meshes garments, each on a new layer above the current outermost one"""
+
+    bl_idname = "deformrt.tag_garments"
+    bl_label = "Tag as Garments"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        if not _selected_meshes(context):
+            cls.poll_message_set("Select one or more mesh objects")
+            return False
+        return True
+
+    def execute(self, context):
+        new = [o for o in _selected_meshes(context) if o.deformrt.role != "GARMENT"]
+        skipped = len(_selected_meshes(context)) - len(new)
+        layer = scene_roles.top_layer(context.scene)
+        for obj in sorted(new, key=lambda o: o.name):
+            layer += 1
+            obj.deformrt.role = "GARMENT"
+            obj.deformrt.layer = layer
+        msg = f"Tagged {len(new)} garment(s)"
+        if skipped:
+            msg += f"; {skipped} already garments kept their layers"
+        self.report({"INFO"}, msg)
+        return {"FINISHED"}
+
+
+class DEFORMRT_OT_clear_role(bpy.types.Operator):
+    """Take the selected objects out of garment layering"""
+
+    bl_idname = "deformrt.clear_role"
+    bl_label = "Clear Role"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        if not any(scene_roles.is_tagged_mesh(o) for o in context.selected_objects):
+            cls.poll_message_set("No selected object is tagged as body or garment")
+            return False
+        return True
+
+    def execute(self, context):
+        cleared = [o for o in context.selected_objects if scene_roles.is_tagged_mesh(o)]
+        for obj in cleared:
+            obj.deformrt.role = "NONE"
+            obj.deformrt.layer = 0
+        self.report({"INFO"}, f"Cleared {len(cleared)} object(s)")
+        return {"FINISHED"}
+
+
+class DEFORMRT_OT_move_layer(bpy.types.Operator):
+    """Move a garment one layer further out (up) or in (down), swapping with the garment there"""
+
+    bl_idname = "deformrt.move_layer"
+    bl_label = "Move Garment Layer"
+    bl_options = {"REGISTER", "UNDO"}
+
+    object_name: StringProperty(name="Object", description="Garment to move; the active object when empty")
+    direction: EnumProperty(
+        name="Direction",
+        items=(("UP", "Up", "Worn further out"), ("DOWN", "Down", "Worn closer to the body")),
+        default="UP",
+    )
+
+    def _target(self, context):
+        obj = bpy.data.objects.get(self.object_name) if self.object_name else context.active_object
+        return obj if obj is not None and obj.type == "MESH" and obj.deformrt.role == "GARMENT" else None
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene is not None
+
+    def execute(self, context):
+        obj = self._target(context)
+        if obj is None:
+            self.report({"ERROR"}, "Nothing to move: pick a garment (role Garment) first")
+            return {"CANCELLED"}
+        step = 1 if self.direction == "UP" else -1
+        old = obj.deformrt.layer
+        new = old + step
+        if new < 1:
+            self.report({"WARNING"}, f"{obj.name} is already the innermost garment (layer 1)")
+            return {"CANCELLED"}
+        for other in scene_roles.garments(context.scene):
+            if other is not obj and other.deformrt.layer == new:
+                other.deformrt.layer = old
+        obj.deformrt.layer = new
+        self.report({"INFO"}, f"{obj.name}: layer {old} -> {new}")
+        return {"FINISHED"}
+
+
+CLASSES = (DEFORMRT_OT_tag_body, DEFORMRT_OT_tag_garments, DEFORMRT_OT_clear_role, DEFORMRT_OT_move_layer)

@@ -1,0 +1,1 @@
+"""Deterministic builders for every scene the demo, tests and benchmarks use (nothing is downloaded)."""

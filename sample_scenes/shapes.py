@@ -1,0 +1,42 @@
+"""Plain numpy shapes the scene builders share (no bpy)."""
+
+import numpy as np
+
+
+def tube(radius, z0, z1, n_around=64, n_along=32, noise=0.0, rng=None, capped=False, min_radius=0.0):
+    """An open cylinder along z (two boundary loops), optionally with radial noise.
+
+    With ``capped`` the ends are closed by fans to a centre vertex (a closed surface);
+    ``min_radius`` keeps the noise from dipping into whatever the tube is worn over.
+    Faces wind so normals point outward.
+    """
+    theta = np.linspace(0, 2 * np.pi, n_around, endpoint=False)
+    z = np.linspace(z0, z1, n_along)
+    tt, zz = np.meshgrid(theta, z)
+    r = np.full_like(tt, float(radius))
+    if noise:
+        rng = rng if rng is not None else np.random.default_rng(0)
+        # Smooth bumps (a few low harmonics) rather than per-vertex jitter, like real cloth folds.
+        for k in range(1, 5):
+            a, b, phase = rng.normal(scale=noise / k, size=3)
+            r += a * np.cos(k * tt + phase) * np.cos(np.pi * k * (zz - z0) / (z1 - z0) + b)
+    r = np.maximum(r, min_radius)
+    v = np.column_stack([(r * np.cos(tt)).ravel(), (r * np.sin(tt)).ravel(), zz.ravel()])
+    i, j = np.meshgrid(np.arange(n_along - 1), np.arange(n_around), indexing="ij")
+    a = i * n_around + j
+    b = i * n_around + (j + 1) % n_around
+    c = a + n_around
+    d = b + n_around
+    faces = np.concatenate([np.stack([a, b, d], -1).reshape(-1, 3), np.stack([a, d, c], -1).reshape(-1, 3)])
+    if capped:
+        bottom, top = len(v), len(v) + 1
+        v = np.vstack([v, [[0, 0, z0], [0, 0, z1]]])
+        ring0 = np.arange(n_around)
+        ring1 = (n_along - 1) * n_around + ring0
+        nxt = np.roll(ring0, -1)
+        faces = np.concatenate([
+            faces,
+            np.stack([np.full(n_around, bottom), nxt, ring0], -1),
+            np.stack([np.full(n_around, top), ring1, (n_along - 1) * n_around + nxt], -1),
+        ])
+    return v, faces

@@ -1,0 +1,69 @@
+"""Scene plumbing shared by the builders: empty scene, materials, camera, lights, Cycles."""
+
+import math
+
+import bpy
+from mathutils import Vector
+
+
+def empty_scene(name: str):
+    """Clear the current file's objects and data (keeps preferences and add-ons)."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    scene = bpy.context.scene
+    scene.name = name
+    return scene
+
+
+def material(obj, name, colour, roughness=0.6):
+    mat = bpy.data.materials.get(name) or bpy.data.materials.new(name)
+    mat.use_nodes = True
+    bsdf = mat.node_tree.nodes.get("Principled BSDF")
+    bsdf.inputs["Base Color"].default_value = colour
+    bsdf.inputs["Roughness"].default_value = roughness
+    mat.diffuse_color = colour
+    obj.data.materials.append(mat)
+    # Both sides of open garments render, so back faces must not be culled.
+    mat.use_backface_culling = False
+    return mat
+
+
+def camera_and_lights(scene, target=(0, 0, 1), distance=3.0, elevation_deg=15.0, azimuth_deg=-30.0):
+    target = Vector(target)
+    az, el = math.radians(azimuth_deg), math.radians(elevation_deg)
+    offset = Vector((math.sin(az) * math.cos(el), -math.cos(az) * math.cos(el), math.sin(el))) * distance
+    cam_data = bpy.data.cameras.new("Camera")
+    cam_data.lens = 50
+    cam = bpy.data.objects.new("Camera", cam_data)
+    scene.collection.objects.link(cam)
+    cam.location = target + offset
+    cam.rotation_euler = (target - cam.location).to_track_quat("-Z", "Y").to_euler()
+    scene.camera = cam
+    for name, energy, rot in (("Key", 3.0, (0.8, 0.2, -0.6)), ("Fill", 1.0, (1.0, -0.3, 2.4))):
+        light_data = bpy.data.lights.new(name, "SUN")
+        light_data.energy = energy
+        light = bpy.data.objects.new(name, light_data)
+        light.rotation_euler = rot
+        scene.collection.objects.link(light)
+    world = bpy.data.worlds.new("World")
+    world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.05, 0.05, 0.06, 1.0)
+    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 1.0
+    scene.world = world
+    return cam
+
+
+def render_cycles(scene, filepath, resolution=(480, 480), samples=16):
+    """Render the scene camera to a PNG with Cycles on the CPU; returns seconds taken."""
+    import time
+
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = samples
+    scene.cycles.use_denoising = False
+    scene.render.resolution_x, scene.render.resolution_y = resolution
+    scene.render.resolution_percentage = 100
+    scene.render.image_settings.file_format = "PNG"
+    scene.render.filepath = str(filepath)
+    start = time.perf_counter()
+    bpy.ops.render.render(write_still=True)
+    return time.perf_counter() - start

@@ -1,0 +1,69 @@
+"""Add-on tests run in a bpy session against the built extension zip, installed the way
+Blender installs it (a temporary user repository, Blender's own install operator).
+
+The user resource folder points at a temporary directory before bpy loads, so the
+tests never touch the developer's Blender configuration.
+"""
+
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import tomllib
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+_USER = tempfile.mkdtemp(prefix="deformrt-blender-user-")
+os.environ["BLENDER_USER_RESOURCES"] = _USER
+
+bpy = pytest.importorskip("bpy")
+
+REPO_MODULE = "deformrt_test"
+
+
+def _platform_tag() -> str:
+    machine = platform.machine().lower()
+    arch = "arm64" if machine in {"arm64", "aarch64"} else "x64"
+    system = {"linux": "linux", "darwin": "macos", "win32": "windows"}[sys.platform]
+    return f"{system}_{arch}"
+
+
+def _sources_newer_than(path: Path) -> bool:
+    stamp = path.stat().st_mtime
+    for folder in ("core", "addon", "operators", "sample_scenes"):
+        if any(p.stat().st_mtime > stamp for p in (ROOT / folder).rglob("*.py")):
+            return True
+    return any((ROOT / f).stat().st_mtime > stamp for f in ("__init__.py", "__main__.py", "blender_manifest.toml"))
+
+
+def built_zip() -> Path:
+    manifest = tomllib.loads((ROOT / "blender_manifest.toml").read_text())
+    zip_path = ROOT / "dist" / f"{manifest['id']}-{manifest['version']}-{_platform_tag()}.zip"
+    if not zip_path.is_file() or _sources_newer_than(zip_path):
+        subprocess.run([sys.executable, str(ROOT / ".ci" / "build.py")], check=True)
+    return zip_path
+
+
+@pytest.fixture(scope="session")
+def extension():
+    """The installed extension's package (``bl_ext.deformrt_test.deformrt``)."""
+    zip_path = built_zip()
+    repo_dir = Path(_USER) / "repo"
+    repo_dir.mkdir(exist_ok=True)
+    repos = bpy.context.preferences.extensions.repos
+    repo = repos.new(name="DeformRT Test", module=REPO_MODULE, custom_directory=str(repo_dir), source="USER")
+    result = bpy.ops.extensions.package_install_files(repo=repo.module, filepath=str(zip_path), enable_on_install=True)
+    assert result == {"FINISHED"}, f"installing {zip_path.name} failed: {result}"
+    module = f"bl_ext.{REPO_MODULE}.deformrt"
+    assert module in bpy.context.preferences.addons, "the extension installed but is not enabled"
+    yield sys.modules[module]
+
+
+@pytest.fixture
+def clean_scene(extension):
+    """A fresh empty file for each test (preferences and the enabled extension stay)."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    return bpy.context.scene

@@ -1,0 +1,148 @@
+"""The built extension in a bpy session: registration, tagging operators, mesh IO and the CLI."""
+
+import importlib
+import subprocess
+import sys
+
+import bpy
+import numpy as np
+import pytest
+
+MODULE = "bl_ext.deformrt_test.deformrt"
+
+
+def add_mesh(name, location=(0, 0, 0)):
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [], [(0, 1, 2)])
+    obj = bpy.data.objects.new(name, mesh)
+    obj.location = location
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def select(*objs, active=None):
+    bpy.context.view_layer.update()  # newly linked objects join the view layer on update
+    for o in bpy.context.view_layer.objects:
+        o.select_set(False)
+    for o in objs:
+        o.select_set(True)
+    bpy.context.view_layer.objects.active = active if active is not None else (objs[0] if objs else None)
+
+
+def test_installed_from_zip_not_from_checkout(extension):
+    assert extension.__name__ == MODULE
+    assert "/repo/deformrt/" in extension.__file__.replace("\\", "/")
+    assert extension.core.rays.HAVE_EMBREE
+
+
+def test_register_unregister_register_leaves_nothing_behind(clean_scene):
+    assert bpy.ops.preferences.addon_disable(module=MODULE) == {"FINISHED"}
+    try:
+        assert not hasattr(bpy.types.Object, "deformrt")
+        assert not hasattr(bpy.types.Scene, "deformrt")
+        for name in ("DEFORMRT_PT_layers", "DEFORMRT_OT_tag_body", "DEFORMRT_OT_move_layer"):
+            assert not hasattr(bpy.types, name), name
+        assert "tag_body" not in dir(bpy.ops.deformrt)
+    finally:
+        assert bpy.ops.preferences.addon_enable(module=MODULE) == {"FINISHED"}
+    assert hasattr(bpy.types.Object, "deformrt")
+    assert hasattr(bpy.types, "DEFORMRT_PT_layers")
+    assert bpy.context.scene.deformrt.resolve_on_frame_change is False
+
+
+def test_tag_body_replaces_the_previous_body(clean_scene):
+    first, second = add_mesh("First"), add_mesh("Second")
+    select(first)
+    assert bpy.ops.deformrt.tag_body() == {"FINISHED"}
+    select(second)
+    assert bpy.ops.deformrt.tag_body() == {"FINISHED"}
+    assert (first.deformrt.role, second.deformrt.role, second.deformrt.layer) == ("NONE", "BODY", 0)
+
+
+def test_tag_body_needs_an_active_mesh(clean_scene):
+    empty = bpy.data.objects.new("Empty", None)
+    clean_scene.collection.objects.link(empty)
+    select(empty)
+    assert not bpy.ops.deformrt.tag_body.poll()
+    with pytest.raises(RuntimeError, match="Select a mesh object"):
+        bpy.ops.deformrt.tag_body()
+
+
+def test_tag_garments_stack_above_existing_layers(clean_scene):
+    a, b, c = add_mesh("A"), add_mesh("B"), add_mesh("C")
+    select(a)
+    bpy.ops.deformrt.tag_garments()
+    select(c, b)
+    bpy.ops.deformrt.tag_garments()
+    assert [o.deformrt.layer for o in (a, b, c)] == [1, 2, 3]
+    assert all(o.deformrt.role == "GARMENT" for o in (a, b, c))
+    # tagging again keeps existing layers
+    select(a, b, c)
+    bpy.ops.deformrt.tag_garments()
+    assert [o.deformrt.layer for o in (a, b, c)] == [1, 2, 3]
+
+
+def test_move_layer_swaps_neighbours_and_stops_at_the_body(clean_scene):
+    a, b = add_mesh("A"), add_mesh("B")
+    select(a, b)
+    bpy.ops.deformrt.tag_garments()
+    assert bpy.ops.deformrt.move_layer(object_name="A", direction="UP") == {"FINISHED"}
+    assert (a.deformrt.layer, b.deformrt.layer) == (2, 1)
+    assert bpy.ops.deformrt.move_layer(object_name="B", direction="DOWN") == {"CANCELLED"}
+    assert (a.deformrt.layer, b.deformrt.layer) == (2, 1)
+    with pytest.raises(RuntimeError, match="Nothing to move"):
+        bpy.ops.deformrt.move_layer(object_name="Missing")
+
+
+def test_clear_role(clean_scene):
+    a = add_mesh("A")
+    select(a)
+    bpy.ops.deformrt.tag_garments()
+    assert bpy.ops.deformrt.clear_role() == {"FINISHED"}
+    assert (a.deformrt.role, a.deformrt.layer) == ("NONE", 0)
+    assert not bpy.ops.deformrt.clear_role.poll()
+
+
+def test_mesh_io_round_trip_in_world_space(extension, clean_scene):
+    mesh_io = importlib.import_module(MODULE + ".addon.mesh_io")
+    rng = np.random.default_rng(0)
+    v = rng.normal(size=(50, 3))
+    f = rng.integers(0, 50, size=(40, 3))
+    f = f[(f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])]
+    f = np.unique(np.sort(f, axis=1), axis=0)
+    obj = mesh_io.new_mesh_object("Soup", v, f, clean_scene.collection, smooth=False)
+    obj.location = (1.0, -2.0, 3.0)
+    obj.rotation_euler = (0.3, 0.2, 0.1)
+    obj.scale = (2.0, 1.0, 0.5)
+    got = mesh_io.read_mesh(obj, bpy.context.evaluated_depsgraph_get())
+    m = np.array(obj.matrix_world)
+    np.testing.assert_allclose(got.vertices, v @ m[:3, :3].T + m[:3, 3], atol=1e-5)
+    np.testing.assert_array_equal(np.sort(got.triangles, axis=1), np.sort(f, axis=1))
+    local = mesh_io.read_mesh(obj, world=False)
+    np.testing.assert_allclose(local.vertices, v, atol=1e-6)
+
+
+def test_mesh_io_reads_evaluated_modifiers(extension, clean_scene):
+    bpy.ops.mesh.primitive_cube_add()
+    cube = bpy.context.active_object
+    cube.modifiers.new("Sub", "SUBSURF").levels = 1
+    got = importlib.import_module(MODULE + ".addon.mesh_io").read_mesh(cube)
+    assert len(got.triangles) == 6 * 4 * 2  # subdivided once: 24 quads, 48 triangles
+    assert len(cube.data.polygons) == 6  # the original is untouched
+
+
+def test_cli_info_inside_blender(extension, capsys):
+    assert extension.addon.cli.main(["info"]) == 0
+    out = capsys.readouterr().out
+    assert "Embree (embreex)" in out and "4.5" in out
+    assert extension.addon.cli.main(["no-such-command"]) == 2
+
+
+def test_cli_from_plain_python_runs_the_installed_extension(extension, tmp_path):
+    ext_dir = extension.__file__.rsplit("/", 1)[0]
+    run = subprocess.run([sys.executable, ext_dir, "demo", "--out", str(tmp_path), "--size", "64", "--samples", "2"],
+                         capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert (tmp_path / "before.png").stat().st_size > 1000
+    table = (tmp_path / "metrics.md").read_text()
+    assert "| Body | body | 0 |" in table
