@@ -1,9 +1,10 @@
 """One ray engine for all of DeformRT: first hits and occlusion against a triangle set.
 
-Embree (through ``embreex``) does the traversal in float32; rays are split into
-chunks on a thread pool because embreex releases the GIL while tracing. Hit
-distances are then recomputed in float64 on the hit triangle's plane, so results
-agree with a float64 reference to round-off even far from the origin.
+Embree (through ``embreex``) does the traversal in float32 on a copy of the scene
+centred on its bounding box; rays are split into chunks on a thread pool because
+embreex releases the GIL while tracing. Hit distances are then recomputed in
+float64 on the hit triangle's plane, so ``t`` agrees with a float64 reference to
+round-off even far from the origin.
 Without embreex the same answers come from trimesh's numpy intersector.
 """
 
@@ -13,8 +14,6 @@ import os
 import threading
 import warnings
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
-
 import numpy as np
 
 try:
@@ -65,24 +64,36 @@ def _get_device():
     return _device
 
 
-@dataclass
 class RayHits:
     """First hit per ray.
 
     t: distance along the unit direction (inf on a miss).
     face: index of the hit triangle (-1 on a miss).
-    normal: unit geometric normal of the hit triangle in its winding order (0 on a miss).
-    bary: (u, v) with hit = (1-u-v)*v0 + u*v1 + v*v2 (0 on a miss).
+    normal: unit geometric normal of the hit triangle in its winding order (0 on a miss);
+        gathered on first use, since many passes only need t and face.
+    bary: (u, v) with hit = (1-u-v)*v0 + u*v1 + v*v2 (0 on a miss); Embree's float32
+        values (about 1e-7 relative), enough to interpolate normals or attributes.
     """
 
-    t: np.ndarray
-    face: np.ndarray
-    normal: np.ndarray
-    bary: np.ndarray
+    __slots__ = ("t", "face", "bary", "_face_normals", "_normal")
+
+    def __init__(self, t, face, bary, face_normals):
+        self.t, self.face, self.bary = t, face, bary
+        self._face_normals = face_normals
+        self._normal = None
 
     @property
     def hit(self) -> np.ndarray:
         return self.face >= 0
+
+    @property
+    def normal(self) -> np.ndarray:
+        if self._normal is None:
+            normal = np.zeros((len(self.face), 3))
+            h = self.hit
+            normal[h] = self._face_normals[self.face[h]]
+            self._normal = normal
+        return self._normal
 
     def points(self, origins, directions) -> np.ndarray:
         """Hit points (NaN on a miss), using the unit directions the rays were traced with."""
@@ -192,27 +203,36 @@ class RayScene:
         o, d = _as_rays(origins, directions)
         n = len(o)
         tmax = _as_range("max_dist", max_dist, n, np.inf)
-        tmin = _as_range("min_dist", min_dist, n, 0.0)
         t = np.full(n, np.inf)
         face = np.full(n, -1, dtype=np.int64)
-        active = tmax >= tmin
-        if len(self.faces) and active.any():
-            idx = np.flatnonzero(active)
-            if self._scene is not None:
-                tf, ff = self._trace_embree(o[idx] + d[idx] * tmin[idx, None], d[idx], tmax[idx] - tmin[idx])
-                tf = tf + tmin[idx]
-            else:
-                tf, ff = self._fallback(o[idx], d[idx], tmin[idx], tmax[idx])
-            t[idx], face[idx] = tf, ff
-        hit = face >= 0
-        t[hit] = self._refine_t(o[hit], d[hit], face[hit], t[hit])
-        # Float64 refinement can push a hit a hair outside [min, max]; clamp instead of dropping it.
-        t[hit] = np.clip(t[hit], tmin[hit], tmax[hit])
-        normal = np.zeros((n, 3))
-        normal[hit] = self.face_normals[face[hit]]
         bary = np.zeros((n, 2))
-        bary[hit] = self._barycentric(o[hit] + d[hit] * t[hit, None], face[hit])
-        return RayHits(t=t, face=face, normal=normal, bary=bary)
+        if min_dist is None and (max_dist is None or (tmax >= 0).all()):
+            tmin, idx = None, None  # every ray traced as given: no index copies
+        else:
+            tmin = _as_range("min_dist", min_dist, n, 0.0)
+            idx = np.flatnonzero(tmax >= tmin)
+        if not len(self.faces) or (idx is not None and not len(idx)):
+            return RayHits(t, face, bary, self.face_normals)
+        if idx is None:
+            oo, dd, lo, hi = o, d, None, tmax
+        else:
+            lo = tmin[idx]
+            oo, dd, hi = o[idx] + d[idx] * lo[:, None], d[idx], tmax[idx] - lo
+        if self._scene is not None:
+            tf, ff, uv = self._trace_embree(oo, dd, hi)
+        else:
+            tf, ff = self._fallback(oo, dd, np.zeros(len(oo)), hi)
+            hit = ff >= 0
+            tf[hit] = self._refine_t(oo[hit], dd[hit], ff[hit], tf[hit], hi[hit])
+            uv = np.zeros((len(ff), 2))
+            uv[hit] = self._barycentric(oo[hit] + dd[hit] * tf[hit, None], ff[hit])
+        if lo is not None:
+            tf += lo
+        if idx is None:
+            t, face, bary = tf, ff, uv
+        else:
+            t[idx], face[idx], bary[idx] = tf, ff, uv
+        return RayHits(t, face, bary, self.face_normals)
 
     def occluded(self, origins, directions, max_dist=None, min_dist=None) -> np.ndarray:
         """True where something lies between ``min_dist`` and ``max_dist`` along the ray."""
@@ -247,21 +267,30 @@ class RayScene:
         return list(_get_pool(self.threads).map(fn, slices))
 
     def _trace_embree(self, o, d, tmax):
-        org = np.ascontiguousarray(o - self._center, dtype=np.float32)
-        dirs = np.ascontiguousarray(d, dtype=np.float32)
-        dist = _float32_dist(tmax)
+        n = len(o)
+        tf = np.empty(n)
+        ff = np.empty(n, dtype=np.int64)
+        uv = np.empty((n, 2))
 
+        # Each worker converts, traces and refines its own slice, so the numpy work runs
+        # in parallel with tracing too (numpy and embreex both release the GIL).
         def run(sl):
-            r = self._scene.run(org[sl], dirs[sl], dists=dist[sl].copy(), output=1)
-            return r["tfar"], r["primID"]
+            oo, dd, hi = o[sl], d[sl], tmax[sl]
+            org = np.ascontiguousarray(oo - self._center, dtype=np.float32)
+            r = self._scene.run(org, np.ascontiguousarray(dd, dtype=np.float32), dists=_float32_dist(hi), output=1)
+            face = r["primID"].astype(np.int64)
+            hit = face >= 0
+            t = np.full(len(face), np.inf)
+            t[hit] = self._refine_t(oo[hit], dd[hit], face[hit], r["tfar"][hit].astype(np.float64), hi[hit])
+            tf[sl], ff[sl] = t, face
+            uv[sl, 0] = np.where(hit, r["u"], 0.0)
+            uv[sl, 1] = np.where(hit, r["v"], 0.0)
 
-        parts = self._map_chunks(run, len(org))
-        tf = np.concatenate([p[0] for p in parts]).astype(np.float64)
-        ff = np.concatenate([p[1] for p in parts]).astype(np.int64)
-        tf[ff < 0] = np.inf
-        return tf, ff
+        self._map_chunks(run, n)
+        return tf, ff, uv
 
-    def _refine_t(self, o, d, face, t32):
+    def _refine_t(self, o, d, face, t32, tmax):
+        """Float64 distance to the hit triangle's plane, kept inside [0, tmax]."""
         n = self.face_normals[face]
         denom = np.einsum("ij,ij->i", d, n)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -269,7 +298,7 @@ class RayScene:
         # Grazing rays: the plane solve is ill-conditioned; keep Embree's distance.
         bad = ~np.isfinite(t) | (np.abs(denom) < 1e-6)
         t[bad] = t32[bad]
-        return t
+        return np.clip(t, 0.0, tmax)
 
     def _barycentric(self, p, face):
         tri = self.vertices[self.faces[face]]

@@ -69,7 +69,8 @@ def test_random_soup_matches_brute_force(rng):
     np.testing.assert_allclose(got.normal[hit], ref_n / np.linalg.norm(ref_n, axis=1, keepdims=True), atol=1e-9)
     u, w = got.bary[hit, 0], got.bary[hit, 1]
     p_bary = (1 - u - w)[:, None] * tri[:, 0] + u[:, None] * tri[:, 1] + w[:, None] * tri[:, 2]
-    np.testing.assert_allclose(p_bary, got.points(o, d)[hit], atol=1e-9)
+    # barycentrics come from Embree in float32: good to a few float32 ulps of the scene size
+    np.testing.assert_allclose(p_bary, got.points(o, d)[hit], atol=1e-5)
 
 
 def test_max_and_min_distance_per_ray(rng):
