@@ -14,6 +14,7 @@ import os
 import threading
 import warnings
 from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 
 try:
