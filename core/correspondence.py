@@ -1,0 +1,157 @@
+"""Garment-to-body correspondence: nearest body surface point, global normals (seed 4.3, Fig. 4.6).
+
+The correspondence (body triangle + barycentrics per garment vertex) is found once at
+rest; a posed body's normals are then read through it without searching again.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .rays import RayScene
+
+
+@dataclass
+class BodyCorrespondence:
+    triangle: np.ndarray  # (n,) body triangle nearest to each point
+    bary: np.ndarray  # (n, 3) barycentric weights of the nearest point on it
+    distance: np.ndarray  # (n,) distance to the body surface
+
+    def normals(self, body_vertex_normals: np.ndarray, body_faces: np.ndarray) -> np.ndarray:
+        """Interpolated unit body normals at the corresponding points (the seed's n')."""
+        corners = body_vertex_normals[body_faces[self.triangle]]  # (n, 3, 3)
+        n = np.einsum("ij,ijk->ik", self.bary, corners)
+        return _unit(n)
+
+    def points(self, body_vertices: np.ndarray, body_faces: np.ndarray) -> np.ndarray:
+        return np.einsum("ij,ijk->ik", self.bary, body_vertices[body_faces[self.triangle]])
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    length = np.linalg.norm(v, axis=1, keepdims=True)
+    return np.divide(v, length, out=np.zeros_like(v), where=length > 0)
+
+
+def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Area-weighted unit vertex normals (zero for vertices of zero-area triangles only)."""
+    tri = vertices[faces]
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    out = np.zeros_like(vertices)
+    for k in range(3):
+        np.add.at(out, faces[:, k], cross)
+    return _unit(out)
+
+
+def closest_point_on_triangles(p, a, b, c):
+    """Closest point to p on triangle abc, all (n,3); returns barycentric weights (n,3).
+
+    Ericson, Real-Time Collision Detection, 5.1.5, vectorised; degenerate triangles
+    fall into the edge and vertex regions and stay finite.
+    """
+    ab, ac, ap = b - a, c - a, p - a
+    d1 = np.einsum("ij,ij->i", ab, ap)
+    d2 = np.einsum("ij,ij->i", ac, ap)
+    bp = p - b
+    d3 = np.einsum("ij,ij->i", ab, bp)
+    d4 = np.einsum("ij,ij->i", ac, bp)
+    cp = p - c
+    d5 = np.einsum("ij,ij->i", ab, cp)
+    d6 = np.einsum("ij,ij->i", ac, cp)
+    va = d3 * d6 - d5 * d4
+    vb = d5 * d2 - d1 * d6
+    vc = d1 * d4 - d3 * d2
+    n = len(p)
+    w = np.zeros((n, 3))
+    done = np.zeros(n, dtype=bool)
+
+    def take(mask, wa, wb, wc):
+        m = mask & ~done
+        w[m] = np.stack([np.broadcast_to(x, (n,)) for x in (wa, wb, wc)], axis=-1)[m]
+        done[m] = True
+
+    with np.errstate(divide="ignore", invalid="ignore"):
+        take((d1 <= 0) & (d2 <= 0), 1.0, 0.0, 0.0)
+        take((d3 >= 0) & (d4 <= d3), 0.0, 1.0, 0.0)
+        take((d6 >= 0) & (d5 <= d6), 0.0, 0.0, 1.0)
+        t = d1 / (d1 - d3)
+        take((vc <= 0) & (d1 >= 0) & (d3 <= 0), 1 - t, t, 0.0)
+        t = d2 / (d2 - d6)
+        take((vb <= 0) & (d2 >= 0) & (d6 <= 0), 1 - t, 0.0, t)
+        t = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+        take((va <= 0) & ((d4 - d3) >= 0) & ((d5 - d6) >= 0), 0.0, 1 - t, t)
+        denom = va + vb + vc
+        v = vb / denom
+        ww = vc / denom
+        take(np.ones(n, dtype=bool), 1 - v - ww, v, ww)
+    bad = ~np.isfinite(w).all(1)
+    w[bad] = (1.0, 0.0, 0.0)
+    return w
+
+
+def _vertex_triangles(faces: np.ndarray, n_vertices: int, width: int) -> np.ndarray:
+    """Up to ``width`` incident triangles per vertex, padded with -1."""
+    order = np.argsort(faces.ravel(), kind="stable")
+    verts = faces.ravel()[order]
+    tris = order // 3
+    start = np.searchsorted(verts, np.arange(n_vertices))
+    rank = np.arange(len(verts)) - start[verts]
+    keep = rank < width
+    table = np.full((n_vertices, width), -1, dtype=np.int64)
+    table[verts[keep], rank[keep]] = tris[keep]
+    return table
+
+
+def nearest_on_surface(points, vertices, faces, k: int = 8, ring_width: int = 12) -> BodyCorrespondence:
+    """Nearest point on a triangle surface for each point.
+
+    Candidates are the triangles around the ``k`` nearest vertices (a kd-tree), which
+    contains the true nearest triangle whenever it has a vertex among them: always, for
+    surfaces whose triangles are small against the distance to the points' neighbours.
+    """
+    points = np.asarray(points, dtype=np.float64)
+    if not len(points):
+        return BodyCorrespondence(np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0))
+    k = min(k, len(vertices))
+    _, near = cKDTree(vertices).query(points, k=k)
+    near = near.reshape(len(points), -1)
+    cand = _vertex_triangles(faces, len(vertices), ring_width)[near].reshape(len(points), -1)
+    best_d = np.full(len(points), np.inf)
+    best_t = np.zeros(len(points), dtype=np.int64)
+    best_w = np.zeros((len(points), 3))
+    for j in range(cand.shape[1]):
+        t = cand[:, j]
+        ok = t >= 0
+        if not ok.any():
+            continue
+        tri = vertices[faces[t[ok]]]
+        w = closest_point_on_triangles(points[ok], tri[:, 0], tri[:, 1], tri[:, 2])
+        q = np.einsum("ij,ijk->ik", w, tri)
+        d = np.linalg.norm(points[ok] - q, axis=1)
+        idx = np.flatnonzero(ok)
+        better = d < best_d[idx]
+        sel = idx[better]
+        best_d[sel], best_t[sel], best_w[sel] = d[better], t[ok][better], w[better]
+    return BodyCorrespondence(best_t, best_w, best_d)
+
+
+def local_radius(vertices, faces, normals=None, scene: RayScene | None = None) -> np.ndarray:
+    """Half the chord length straight through the body from each vertex (the seed's l_s, per vertex).
+
+    Rays go inward along -normal; a vertex whose ray finds nothing (open or odd geometry)
+    takes the median of the rest.
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    if normals is None:
+        normals = vertex_normals(vertices, faces)
+    scene = scene if scene is not None else RayScene(vertices, faces)
+    size = float(np.ptp(vertices, axis=0).max()) if len(vertices) else 1.0
+    ok = np.linalg.norm(normals, axis=1) > 0
+    radius = np.full(len(vertices), np.nan)
+    if ok.any():
+        hits = scene.intersect(vertices[ok], -normals[ok], min_dist=1e-6 * size)
+        radius[ok] = np.where(hits.hit, 0.5 * hits.t, np.nan)
+    fill = np.nanmedian(radius) if np.isfinite(radius).any() else 0.1 * size
+    return np.where(np.isfinite(radius), radius, fill)
