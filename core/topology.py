@@ -1,0 +1,56 @@
+"""Topological queries on triangle meshes: boundary points (Fig. 4.8) and neighbour rings (Fig. 4.9)."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import sparse
+
+
+def edges_with_counts(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unique undirected edges and how many triangles use each."""
+    f = np.asarray(faces, dtype=np.int64)
+    if not len(f):
+        return np.zeros((0, 2), np.int64), np.zeros(0, np.int64)
+    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    e = e[e[:, 0] != e[:, 1]]
+    return np.unique(e, axis=0, return_counts=True)
+
+
+def boundary_vertices(faces: np.ndarray, n_vertices: int) -> np.ndarray:
+    """Bool mask: vertices on an edge that only one triangle uses (hems, cuffs, necklines)."""
+    e, count = edges_with_counts(faces)
+    mask = np.zeros(n_vertices, dtype=bool)
+    mask[e[count == 1].ravel()] = True
+    return mask
+
+
+def vertex_adjacency(faces: np.ndarray, n_vertices: int) -> sparse.csr_matrix:
+    """Symmetric vertex-vertex adjacency (CSR, boolean)."""
+    e, _ = edges_with_counts(faces)
+    data = np.ones(2 * len(e), dtype=bool)
+    rows = np.concatenate([e[:, 0], e[:, 1]])
+    cols = np.concatenate([e[:, 1], e[:, 0]])
+    return sparse.csr_matrix((data, (rows, cols)), shape=(n_vertices, n_vertices))
+
+
+def ring_distance(adjacency: sparse.csr_matrix, seeds: np.ndarray, max_rings: int) -> np.ndarray:
+    """Topological distance (in edge hops) from the seed vertices, up to ``max_rings``; -1 beyond."""
+    n = adjacency.shape[0]
+    dist = np.full(n, -1, dtype=np.int64)
+    frontier = np.zeros(n, dtype=bool)
+    frontier[seeds] = True
+    dist[frontier] = 0
+    for ring in range(1, max_rings + 1):
+        reached = (adjacency @ frontier) & (dist < 0)
+        if not reached.any():
+            break
+        dist[reached] = ring
+        frontier = reached
+    return dist
+
+
+def mean_edge_length(vertices: np.ndarray, faces: np.ndarray) -> float:
+    e, _ = edges_with_counts(faces)
+    if not len(e):
+        return 0.0
+    return float(np.linalg.norm(vertices[e[:, 0]] - vertices[e[:, 1]], axis=1).mean())
