@@ -13,11 +13,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import trimesh
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
 
 from .correspondence import BodyCorrespondence, local_radius, nearest_on_surface, vertex_normals
 from .metrics import crossing_edges, unique_edges
 from .rays import RayScene
-from .topology import boundary_vertices, mean_edge_length, vertex_adjacency
+from .topology import boundary_vertices, mean_edge_length, ring_distance, vertex_adjacency
 
 
 @dataclass
@@ -120,17 +122,48 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
     return best_t, best_layer, best_face, rays
 
 
+def _spread_from_hits(vertices, faces, hit_points, amplitude, seed_vertices, falloff=None):
+    """Per-vertex inward move near a higher layer's hem (Fig. 4.9-4.10).
+
+    Each hit moves nearby vertices by amplitude * exp(-x^2 / 2c^2), x their distance from
+    the hit point, truncated at 3c; only vertices within a few topological rings of the
+    hit triangle take part, so the move stays on the same patch of cloth. Distances from
+    the hit point (not from the triangle's corners) make the result independent of which
+    of two triangles sharing an edge the ray reported.
+    """
+    edge = mean_edge_length(vertices, faces)
+    c = float(falloff) if falloff is not None else 4.0 * edge
+    if c <= 0:
+        out = np.zeros(len(vertices))
+        np.maximum.at(out, seed_vertices, np.repeat(amplitude, 3))
+        return out
+    reach = 3.0 * c
+    lengths = np.linalg.norm(vertices[faces[:, 1]] - vertices[faces[:, 0]], axis=1)
+    shortest = max(float(lengths[lengths > 0].min(initial=edge)), 1e-3 * edge, 1e-300)
+    rings = int(min(256, np.ceil(reach / shortest) + 1))
+    near_patch = ring_distance(vertex_adjacency(faces, len(vertices)), np.unique(seed_vertices), rings) >= 0
+    candidates = np.flatnonzero(near_patch)
+    out = np.zeros(len(vertices))
+    # the "ndarray" form keeps pairs at distance 0 (a hit exactly on a vertex)
+    pairs = cKDTree(hit_points).sparse_distance_matrix(cKDTree(vertices[candidates]), reach, output_type="ndarray")
+    w = amplitude[pairs["i"]] * np.exp(-(pairs["v"] ** 2) / (2 * c * c))
+    np.maximum.at(out, candidates[pairs["j"]], w)
+    return out
+
+
 def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResult:
     """Move lower garment layers behind higher ones and drop triangles that still show through.
 
     body, garments: trimesh.Trimesh in world space, garments ordered inner to outer.
     body_segments: optional int per body vertex (body part ids); garment vertices take
         the part of their nearest body point and only meet triangles of the same part.
+        Without it, each connected piece of the body mesh is a part.
     params:
         offset (d, scene units): gap left behind a higher layer; default 0.1% of the
             body's bounding-box diagonal (about 2 mm on a 1.8 m figure).
-        probe_distance (l_s): scalar, or one value per segment id; default each body
-            part's median local radius (half the chord through the body).
+        probe_distance (l_s): scalar, or one value per segment id. Default: with
+            body_segments, each part's median local radius (half the chord through the
+            body); without, the local radius at each garment vertex's nearest body point.
         garment_segments: list of per-vertex segment arrays (or None) overriding the nearest-body rule.
         global_normals: list of per-vertex (n,3) arrays (or None) overriding the body's normals.
         boundary_pass, push_behind, remove_hidden: bool stages, all on by default.
@@ -152,7 +185,9 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     garr = [_mesh_arrays(g, f"garments[{i}]") for i, g in enumerate(garments)]
     n_g = len(garr)
     if body_segments is None:
-        body_seg = np.zeros(len(bv), dtype=np.int64)
+        # Separate pieces of the body (a figure modelled as parts) are separate segments.
+        _, body_seg = connected_components(vertex_adjacency(bf, len(bv)), directed=False)
+        body_seg = body_seg.astype(np.int64)
     else:
         body_seg = np.asarray(body_segments)
         if body_seg.shape != (len(bv),) or not np.issubdtype(body_seg.dtype, np.integer) or (body_seg < 0).any():
@@ -172,6 +207,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     body_normals = vertex_normals(bv, bf)
     n_seg = int(body_seg.max()) + 1
     probe = params.get("probe_distance")
+    radius = None
     if probe is None:
         radius = local_radius(bv, bf, body_normals)
         l_seg = np.array([np.median(radius[body_seg == s]) if (body_seg == s).any() else np.median(radius)
@@ -180,9 +216,12 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         l_seg = np.broadcast_to(np.asarray(probe, dtype=np.float64), (n_seg,)).copy()
         if not np.isfinite(l_seg).all() or (l_seg < 0).any():
             raise ValueError("probe_distance must be finite and >= 0")
-    corr, normals, vseg = [], [], []
+    # Without segments (one part) the probe distance follows the body locally: each garment
+    # vertex takes the body's radius at its nearest point, so a sleeve probe stops inside the arm.
+    local_probe = radius is not None and body_segments is None
+    corr, normals, vseg, probe_len = [], [], [], []
     far = 0
-    for i, (v, f) in enumerate(garr):
+    for i, (v, _) in enumerate(garr):
         c = nearest_on_surface(v, bv, bf)
         corr.append(c)
         if g_normals_in[i] is not None:
@@ -203,8 +242,13 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         else:
             s = np.zeros(0, dtype=np.int64)
         vseg.append(s)
+        if local_probe and len(v):
+            lv = np.einsum("ij,ij->i", c.bary, radius[bf[c.triangle]])
+        else:
+            lv = l_seg[s]
+        probe_len.append(lv)
         if len(v):
-            far += int((c.distance > l_seg[s]).sum())
+            far += int((c.distance > lv).sum())
     timings["correspondence_s"] = time.perf_counter() - t0
 
     verts = [v.copy() for v, _ in garr]
@@ -220,46 +264,28 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     # --- boundary pass (Fig. 4.10): higher layers' hem points look outward for lower layers
     t0 = time.perf_counter()
     if params.get("boundary_pass", True) and n_g > 1:
-        falloff = params.get("falloff")
         for k in range(n_g - 1):  # the lower layer that may be tucked in
             v, f = verts[k], faces[k]
             if not len(f):
                 continue
-            amp = np.zeros(len(v))
+            hit_points, hit_amp, seeds = [], [], []
             for n_hi in range(k + 1, n_g):
                 hv, hf = verts[n_hi], faces[n_hi]
                 b = np.flatnonzero(boundary_vertices(hf, len(hv)))
                 if not len(b):
                     continue
-                t, layer, face, r = _trace_layers(hv[b], normals[n_hi][b], l_seg[vseg[n_hi][b]], vseg[n_hi][b],
+                t, layer, face, r = _trace_layers(hv[b], normals[n_hi][b], probe_len[n_hi][b], vseg[n_hi][b],
                                                   scenes, [k])
                 rays["boundary"] += r
                 hit = layer == k
-                if hit.any():
-                    corners = f[face[hit]]  # (h, 3) vertices of the lower layer to move
-                    np.maximum.at(amp, corners.ravel(), np.repeat(t[hit] + d, 3))
-            if not amp.any():
+                hit_points.append(hv[b][hit] + normals[n_hi][b][hit] * t[hit, None])
+                hit_amp.append(t[hit] + d)
+                seeds.append(f[face[hit]].ravel())
+            if not sum(len(a) for a in hit_amp):
                 continue
-            edge = mean_edge_length(v, f)
-            c = float(falloff) if falloff is not None else 4.0 * edge
-            rings = int(min(64, np.ceil(3.0 * c / max(edge, 1e-300))))
-            adj = vertex_adjacency(f, len(v))
-            spread = amp.copy()
-            # Max-propagate each seed's amplitude outward ring by ring, weighted by the Gaussian
-            # of the ring's distance: exp(-x^2 / 2c^2) with x = ring * mean edge length.
-            source = amp.copy()
-            reached = amp > 0
-            for ring in range(1, rings + 1):
-                nb = adj.multiply(source[None, :]).max(axis=1).toarray().ravel()
-                new = (nb > 0) & ~reached
-                if not new.any():
-                    break
-                source[new] = nb[new]
-                reached |= new
-                w = np.exp(-((ring * edge) ** 2) / (2 * c * c))
-                spread[new] = np.maximum(spread[new], nb[new] * w)
-            move = -normals[k] * spread[:, None]
-            verts[k] = v + move
+            spread = _spread_from_hits(v, f, np.concatenate(hit_points), np.concatenate(hit_amp),
+                                       np.concatenate(seeds), params.get("falloff"))
+            verts[k] = v - normals[k] * spread[:, None]
             moved_by["boundary"] += int((spread > 0).sum())
             refresh(k)
     timings["boundary_pass_s"] = time.perf_counter() - t0
@@ -271,14 +297,16 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
             v = verts[k]
             if not len(v):
                 continue
-            # behind the farthest higher layer within reach, not just the nearest one
-            t, layer, _, r = _trace_layers(v, -normals[k], l_seg[vseg[k]], vseg[k], scenes, range(k + 1, n_g),
-                                           farthest=True)
+            # Probes start d outside the vertex, so a vertex less than d behind a higher layer
+            # is caught too: a hit at t means the layer is (t - d) behind, and moving by t
+            # leaves exactly d. Behind the farthest higher layer within reach, not the nearest.
+            t, layer, _, r = _trace_layers(v + normals[k] * d, -normals[k], probe_len[k] + d, vseg[k], scenes,
+                                           range(k + 1, n_g), farthest=True)
             rays["push"] += r
             hit = layer >= 0
             if hit.any():
                 verts[k] = v.copy()
-                verts[k][hit] -= normals[k][hit] * (t[hit] + d)[:, None]
+                verts[k][hit] -= normals[k][hit] * t[hit, None]
                 moved_by["push"] += int(hit.sum())
                 refresh(k)
     timings["push_behind_s"] = time.perf_counter() - t0
@@ -331,6 +359,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         "segments": n_seg,
         "offset": d,
         "probe_distance": l_seg.tolist(),
+        "probe_distance_per_vertex": bool(local_probe),
         "rays_boundary": rays["boundary"],
         "rays_push": rays["push"],
         "rays_hidden": rays["hidden"],

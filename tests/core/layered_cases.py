@@ -1,0 +1,55 @@
+"""Hand-built layering cases shared by the tests and benchmarks (numpy + trimesh only)."""
+
+import numpy as np
+import trimesh
+
+from sample_scenes.shapes import tube
+
+
+def mesh(v, f):
+    return trimesh.Trimesh(np.asarray(v, float), np.asarray(f), process=False)
+
+
+def body_tube(radius=0.15, height=0.6, n=64):
+    return mesh(*tube(radius, 0.0, height, n_around=n, n_along=n // 2, capped=True))
+
+
+def noisy_sleeves(radii=(0.165, 0.17), noise=0.012, seed=0, n=64, body_radius=0.15, z0_step=0.08):
+    rng = np.random.default_rng(seed)
+    # tops staggered by 3 mm: exactly coincident rims make grazing rays whose answer is arbitrary
+    return [mesh(*tube(r, z0_step * (k + 1), 0.55 - 0.003 * k, n_around=n, n_along=n // 2, noise=noise, rng=rng,
+                       min_radius=body_radius + 0.006))
+            for k, r in enumerate(radii)]
+
+
+def sheet(size=1.0, n=40, z=0.0, height_fn=None):
+    """A square grid sheet in the xy plane at height z (optionally z + height_fn(x, y)), normals +z."""
+    s = np.linspace(-size / 2, size / 2, n)
+    x, y = np.meshgrid(s, s)
+    zz = np.full_like(x, z) + (height_fn(x, y) if height_fn else 0.0)
+    v = np.column_stack([x.ravel(), y.ravel(), zz.ravel()])
+    i, j = np.meshgrid(np.arange(n - 1), np.arange(n - 1), indexing="ij")
+    a = i * n + j
+    f = np.concatenate([np.stack([a, a + 1, a + n + 1], -1).reshape(-1, 3),
+                        np.stack([a, a + n + 1, a + n], -1).reshape(-1, 3)])
+    return v, f
+
+
+def slab_body(size=3.0, thickness=0.4, subdivisions=5):
+    """A finely tessellated box whose top face is z=0: the 'body' under flat sheets.
+
+    Fine, so the vertex normals under a 1 m sheet are exactly +z (a plain 8-corner
+    box would blend its corner normals across the whole face).
+    """
+    box = trimesh.creation.box(extents=[size, size, thickness])
+    box.apply_translation([0, 0, -thickness / 2])
+    v, f = box.vertices, box.faces
+    for _ in range(subdivisions):
+        v, f = trimesh.remesh.subdivide(v, f)
+    return trimesh.Trimesh(v, f, process=False)
+
+
+def capped_cylinder(radius, height, center=(0.0, 0.0), n=48):
+    v, f = tube(radius, -height / 2, height / 2, n_around=n, n_along=max(8, int(n * height / (6 * radius))),
+                capped=True)
+    return mesh(v + [center[0], center[1], 0.0], f)

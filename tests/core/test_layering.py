@@ -1,0 +1,223 @@
+"""resolve_layers on cases with known answers, extreme inputs and bad input."""
+
+import numpy as np
+import pytest
+import trimesh
+
+from core.layering import resolve_layers
+from core.metrics import crossings, unique_edges
+from tests.core.layered_cases import body_tube, capped_cylinder, mesh, noisy_sleeves, sheet, slab_body
+from tests.core.test_metrics import brute_crossings
+
+
+def radial(v):
+    return np.linalg.norm(v[:, :2], axis=1)
+
+
+def max_stretch(v0, v1, f):
+    e = unique_edges(f)
+    return float((np.linalg.norm(v1[e[:, 0]] - v1[e[:, 1]], axis=1) /
+                  np.linalg.norm(v0[e[:, 0]] - v0[e[:, 1]], axis=1)).max())
+
+
+def test_concentric_noisy_cylinders_stop_crossing():
+    body = body_tube()
+    shirt, jacket = noisy_sleeves(n=40)
+    assert brute_crossings(shirt.vertices, shirt.faces, jacket.vertices, jacket.faces) > 100
+    res = resolve_layers(body, [shirt, jacket])
+    s, j = res.garments
+    assert brute_crossings(s.vertices, s.faces, j.vertices, j.faces) == 0
+    # the outer layer never moves; the inner one only moves inward, never into the body
+    assert not res.moved[1].any()
+    assert (radial(s.vertices) <= radial(shirt.vertices) + 1e-12).all()
+    assert radial(s.vertices).min() > 0.15
+    assert np.linalg.norm(res.moved[0], axis=1).max() < 0.05
+
+
+def test_z_fighting_sheets_move_exactly_the_offset():
+    body = slab_body()
+    v, f = sheet(n=30, z=0.01)
+    d = 0.002
+    res = resolve_layers(body, [mesh(v, f), mesh(v, f)], offset=d, probe_distance=0.05)
+    inner = res.garments[0].vertices
+    inside = (np.abs(v[:, :2]) < 0.45).all(1)  # away from the sheet's rim
+    np.testing.assert_allclose(inner[inside, 2], 0.01 - d, atol=1e-9)
+    np.testing.assert_allclose(inner[inside, :2], v[inside, :2], atol=1e-12)
+    assert not res.removed_faces[0].any()
+
+
+def test_sleeve_next_to_a_torso_is_not_pushed_into_it():
+    """Fig. 4.5: a probe must not reach the torso's outer garment through the arm."""
+    torso = capped_cylinder(0.15, 0.6, n=48)
+    arm = capped_cylinder(0.04, 0.6, center=(0.22, 0.0), n=32)
+    body = trimesh.util.concatenate([torso, arm])
+    body_seg = np.r_[np.zeros(len(torso.vertices), int), np.ones(len(arm.vertices), int)]
+    from sample_scenes.shapes import tube
+
+    sv, sf = tube(0.05, -0.25, 0.25, n_around=32, n_along=20)
+    sleeve = mesh(sv + [0.22, 0, 0], sf)  # layer 1, on the arm
+    jv, jf = tube(0.165, -0.25, 0.25, n_around=64, n_along=20)
+    jacket = mesh(jv, jf)  # layer 2, on the torso, 1.5 cm from the sleeve
+    for segs in (None, body_seg):
+        res = resolve_layers(body, [sleeve, jacket], body_segments=segs)
+        assert not res.moved[0].any(), "the sleeve moved though nothing covers it"
+    # a single probe distance as long as the torso radius would reach through the arm
+    res = resolve_layers(body, [sleeve, jacket], probe_distance=0.15)
+    assert res.moved[0].any()
+
+
+def test_fold_with_flipping_normals_goes_behind_a_flat_layer():
+    """Fig. 4.6: an overhanging fold whose geometric normals flip; body normals still guide it."""
+    body = slab_body()
+    s = np.linspace(-0.5, 0.5, 200)
+    # parametric cross-section with an overhang: x doubles back around s = 0
+    x = s - 0.06 * np.sin(np.pi * np.clip(s / 0.1, -1, 1)) * (np.abs(s) < 0.1)
+    z = 0.012 + 0.01 * np.exp(-(s / 0.05) ** 2)
+    y = np.linspace(-0.5, 0.5, 30)
+    xx, yy = np.meshgrid(x, y)
+    zz = np.broadcast_to(z, xx.shape)
+    v = np.column_stack([xx.ravel(), yy.ravel(), zz.ravel()])
+    n = len(s)
+    i, j = np.meshgrid(np.arange(len(y) - 1), np.arange(n - 1), indexing="ij")
+    a = i * n + j
+    f = np.concatenate([np.stack([a, a + 1, a + n + 1], -1).reshape(-1, 3),
+                        np.stack([a, a + n + 1, a + n], -1).reshape(-1, 3)])
+    fold = mesh(v, f)
+    geo = fold.face_normals[:, 2]
+    assert (geo < 0).any() and (geo > 0).any()  # the fold really flips its normals
+    top_v, top_f = sheet(size=1.1, n=44, z=0.015)  # covers the fold, rims apart
+    res = resolve_layers(body, [fold, mesh(top_v, top_f)], offset=0.001, probe_distance=0.05)
+    low = res.garments[0]
+    assert low.vertices[:, 2].max() <= 0.015 - 0.001 + 1e-9
+    assert brute_crossings(low.vertices, low.faces, top_v, top_f) == 0
+
+
+def test_hem_boundary_pass_tucks_the_lower_layer_in_smoothly():
+    """Fig. 4.10: a shirt 5 mm outside a jacket that ends at z = 0.2."""
+    from sample_scenes.shapes import tube
+
+    body = body_tube()
+    shirt = mesh(*tube(0.175, 0.0, 0.6, n_around=40, n_along=40))
+    jacket = mesh(*tube(0.17, 0.2, 0.6, n_around=40, n_along=27))
+    plain = resolve_layers(body, [shirt, jacket], boundary_pass=False)
+    tucked = resolve_layers(body, [shirt, jacket])
+    for res in (plain, tucked):
+        s = res.garments[0]
+        assert brute_crossings(s.vertices, s.faces, jacket.vertices, jacket.faces) == 0
+    stretch_plain = max_stretch(shirt.vertices, plain.garments[0].vertices, shirt.faces)
+    stretch_tucked = max_stretch(shirt.vertices, tucked.garments[0].vertices, shirt.faces)
+    assert stretch_tucked < stretch_plain
+    # below the hem the tucked shirt eases in over several rings instead of one step
+    below = (shirt.vertices[:, 2] < 0.2) & (shirt.vertices[:, 2] > 0.1)
+    assert np.linalg.norm(tucked.moved[0][below], axis=1).max() > 0.002
+    assert tucked.stats["vertices_moved_boundary"] > 0
+
+
+def test_already_correct_garments_are_left_alone():
+    from sample_scenes.shapes import tube
+
+    body = body_tube()
+    shirt = mesh(*tube(0.16, 0.05, 0.55, n_around=64, n_along=32))
+    jacket = mesh(*tube(0.175, 0.1, 0.55, n_around=64, n_along=32))
+    res = resolve_layers(body, [shirt, jacket])
+    assert not any(m.any() for m in res.moved)
+    assert not any(r.any() for r in res.removed_faces)
+    np.testing.assert_array_equal(res.garments[0].faces, shirt.faces)
+
+
+def test_inputs_are_never_modified():
+    body = body_tube()
+    garments = noisy_sleeves()
+    before = [g.vertices.copy() for g in garments]
+    resolve_layers(body, garments)
+    for g, v in zip(garments, before, strict=True):
+        np.testing.assert_array_equal(g.vertices, v)
+
+
+def test_flipped_garment_winding_gives_the_same_result():
+    body = body_tube()
+    garments = noisy_sleeves()
+    flipped = [mesh(g.vertices, g.faces[:, ::-1]) for g in garments]
+    a = resolve_layers(body, garments)
+    b = resolve_layers(body, flipped)
+    np.testing.assert_allclose(a.moved[0], b.moved[0], atol=1e-12)
+
+
+@pytest.mark.parametrize("scale", [1e-3, 1e3])
+def test_millimetre_and_kilometre_scales(scale):
+    body = body_tube()
+    garments = noisy_sleeves()
+    ref = resolve_layers(body, garments)
+    scaled = resolve_layers(mesh(body.vertices * scale, body.faces),
+                            [mesh(g.vertices * scale, g.faces) for g in garments])
+    np.testing.assert_allclose(scaled.moved[0], ref.moved[0] * scale, rtol=1e-6, atol=1e-9 * scale)
+    s, j = scaled.garments
+    assert brute_crossings(s.vertices, s.faces, j.vertices, j.faces) == 0
+
+
+def test_ten_layers():
+    body = body_tube()
+    radii = tuple(0.165 + 0.002 * k for k in range(10))
+    garments = noisy_sleeves(radii=radii, noise=0.01, z0_step=0.01)
+    res = resolve_layers(body, garments)
+    out = res.garments
+    # core.metrics.crossings is checked against brute force in test_metrics; brute force here
+    # would take minutes for 45 pairs
+    assert sum(crossings(garments[a].vertices, garments[a].faces, garments[a + 1].vertices, garments[a + 1].faces)
+               for a in range(9)) > 0
+    for a in range(10):
+        for b in range(a + 1, 10):
+            assert crossings(out[a].vertices, out[a].faces, out[b].vertices, out[b].faces) == 0, (a, b)
+
+
+def test_degenerate_duplicate_nonmanifold_and_empty_garments():
+    body = body_tube()
+    shirt, jacket = noisy_sleeves()
+    v = np.vstack([shirt.vertices, shirt.vertices[:3], [[0.3, 0, 0.3]] * 3])  # duplicate + collapsed
+    k = len(shirt.vertices)
+    extra = [[k, k + 1, k + 2], [k + 3, k + 4, k + 5], [0, 1, k + 3]]
+    # a non-manifold fin: a third triangle on an existing edge
+    fin = [[shirt.faces[0, 0], shirt.faces[0, 1], k + 3]]
+    messy = mesh(v, np.vstack([shirt.faces, extra, fin]))
+    empty = mesh(np.zeros((0, 3)), np.zeros((0, 3), int))
+    res = resolve_layers(body, [empty, messy, jacket])
+    assert len(res.garments[0].faces) == 0 and res.moved[0].shape == (0, 3)
+    g = res.garments[1]
+    assert np.isfinite(g.vertices).all()
+    keep = np.ones(len(messy.faces), bool)
+    keep[len(shirt.faces):] = False
+    assert brute_crossings(g.vertices, messy.faces[keep & ~res.removed_faces[1]], jacket.vertices, jacket.faces) == 0
+
+
+def test_garment_far_from_the_body_is_reported_not_moved_wildly():
+    body = body_tube()
+    shirt, jacket = noisy_sleeves()
+    far = mesh(shirt.vertices + [5.0, 0, 0], shirt.faces)
+    res = resolve_layers(body, [far, jacket])
+    assert res.stats["vertices_far_from_body"] == len(far.vertices)
+    assert not res.moved[0].any()
+
+
+@pytest.mark.parametrize(
+    "make,match",
+    [
+        (lambda b, g: (None, g), "body is missing"),
+        (lambda b, g: (mesh(np.zeros((0, 3)), np.zeros((0, 3), int)), g), "body has no faces"),
+        (lambda b, g: (b, g[0]), "list of meshes"),
+        (lambda b, g: (b, [mesh(np.full_like(g[0].vertices, np.nan), g[0].faces)]), "NaN"),
+        (lambda b, g: (b, [mesh(g[0].vertices, g[0].faces + len(g[0].vertices))]), "outside"),
+    ],
+)
+def test_bad_input_raises_a_clear_error(make, match):
+    body, garments = make(body_tube(), noisy_sleeves())
+    with pytest.raises(ValueError, match=match):
+        resolve_layers(body, garments)
+
+
+def test_bad_parameters_raise():
+    with pytest.raises(ValueError, match="unknown parameter"):
+        resolve_layers(body_tube(), noisy_sleeves(), ofset=0.1)
+    with pytest.raises(ValueError, match="body_segments"):
+        resolve_layers(body_tube(), noisy_sleeves(), body_segments=np.zeros(3, int))
+    with pytest.raises(ValueError, match="offset"):
+        resolve_layers(body_tube(), noisy_sleeves(), offset=-1.0)
