@@ -50,3 +50,146 @@ def layer_crossings(layers) -> np.ndarray:
             n = crossing_edges(*layers[i], scenes[j]).sum() + crossing_edges(*layers[j], scenes[i]).sum()
             out[i, j] = out[j, i] = n
     return out
+
+
+def camera_ring(center, radius, views=8, elevations_deg=(0.0, 35.0), resolution=128, up_axis=2):
+    """Pinhole cameras on a ring around ``center``, each framing a sphere of ``radius``.
+
+    Returns a list of (origins, directions) ray arrays, one per view (resolution^2 rays).
+    """
+    center = np.asarray(center, dtype=np.float64)
+    dist = 3.0 * radius
+    half = np.arctan(radius / dist) * 1.05
+    s = np.tan(half) * np.linspace(-1, 1, resolution)
+    sx, sy = np.meshgrid(s, -s)
+    out = []
+    axes = [a for a in range(3) if a != up_axis]
+    for el in np.radians(elevations_deg):
+        for az in np.linspace(0, 2 * np.pi, views, endpoint=False):
+            eye_dir = np.zeros(3)
+            eye_dir[axes[0]] = np.cos(az) * np.cos(el)
+            eye_dir[axes[1]] = np.sin(az) * np.cos(el)
+            eye_dir[up_axis] = np.sin(el)
+            forward = -eye_dir
+            up = np.zeros(3)
+            up[up_axis] = 1.0
+            right = np.cross(forward, up)
+            right /= np.linalg.norm(right)
+            cam_up = np.cross(right, forward)
+            d = forward + sx.reshape(-1, 1) * right + sy.reshape(-1, 1) * cam_up
+            o = np.broadcast_to(center + eye_dir * dist, d.shape).copy()
+            out.append((o, d))
+    return out
+
+
+def _stack_layers(layers):
+    verts, faces, layer_of_face, offset = [], [], [], 0
+    for k, (v, f) in enumerate(layers):
+        v = np.asarray(v, dtype=np.float64)
+        f = np.asarray(f, dtype=np.int64).reshape(-1, 3)
+        verts.append(v)
+        faces.append(f + offset)
+        layer_of_face.append(np.full(len(f), k))
+        offset += len(v)
+    return np.concatenate(verts), np.concatenate(faces), np.concatenate(layer_of_face)
+
+
+def _layer_bounds(layers):
+    pts = np.concatenate([np.asarray(v, dtype=np.float64).reshape(-1, 3) for v, _ in layers])
+    lo, hi = pts.min(0), pts.max(0)
+    return 0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))
+
+
+def poke_through(layers, normals=None, depth=None, cameras=None):
+    """Share of covered pixels where a lower layer shows through a higher one.
+
+    A pixel pokes through when its first hit is on layer k and, within ``depth`` behind
+    that point along the ray, the ray meets a front face (normal toward the camera) of a
+    layer j > k. ``layers`` are (vertices, faces) inner to outer; ``normals`` optional
+    outward vertex normals per layer (default: each triangle's winding). ``depth``
+    defaults to 2% of the scene's bounding radius. Returns (share, poked, covered).
+    """
+    center, radius = _layer_bounds(layers)
+    depth = 0.02 * radius if depth is None else float(depth)
+    cameras = cameras if cameras is not None else camera_ring(center, radius)
+    v_all, f_all, lay = _stack_layers(layers)
+    scene = RayScene(v_all, f_all)
+    top = len(layers) - 1
+    stacked_above = [_stack_layers(layers[k + 1:]) for k in range(top)]
+    above = [RayScene(v, f) for v, f, _ in stacked_above]
+    above_faces = [f for _, f, _ in stacked_above]
+    n_all = None if normals is None else np.concatenate([np.asarray(n, dtype=np.float64) for n in normals])
+    offsets = np.cumsum([0] + [len(v) for v, _ in layers])
+    poked = covered = 0
+    for o, d in cameras:
+        d = d / np.linalg.norm(d, axis=1, keepdims=True)
+        first = scene.intersect(o, d)
+        covered += int(first.hit.sum())
+        k_hit = np.where(first.hit, lay[np.maximum(first.face, 0)], -1)
+        p = first.points(o, d)
+        for k in range(top):
+            idx = np.flatnonzero(k_hit == k)
+            if not len(idx):
+                continue
+            behind = above[k].intersect(p[idx], d[idx], max_dist=depth, min_dist=1e-9 * radius)
+            h = behind.hit
+            if not h.any():
+                continue
+            if n_all is None:
+                facing = behind.normal[h]
+            else:
+                # interpolate the given vertex normals of the hit triangle
+                tri = above_faces[k][behind.face[h]] + offsets[k + 1]
+                u, w = behind.bary[h, 0], behind.bary[h, 1]
+                facing = (1 - u - w)[:, None] * n_all[tri[:, 0]] + u[:, None] * n_all[tri[:, 1]] + \
+                    w[:, None] * n_all[tri[:, 2]]
+            front = np.einsum("ij,ij->i", facing, d[idx][h]) < 0
+            poked += int(front.sum())
+    return (poked / covered if covered else 0.0), poked, covered
+
+
+def coverage(layers, cameras):
+    """Per camera, which pixels show any layer (bool arrays)."""
+    scene = RayScene(*_stack_layers(layers)[:2])
+    return [scene.intersect(o, d).hit for o, d in cameras]
+
+
+def new_holes(layers_before, layers_after, cameras=None):
+    """Share of pixels covered before that show background after (removed faces opening holes)."""
+    if cameras is None:
+        center, radius = _layer_bounds(layers_before)
+        cameras = camera_ring(center, radius)
+    before = coverage(layers_before, cameras)
+    after = coverage(layers_after, cameras)
+    lost = sum(int((b & ~a).sum()) for b, a in zip(before, after, strict=True))
+    total = sum(int(b.sum()) for b in before)
+    return lost / total if total else 0.0
+
+
+def distortion(vertices_before, vertices_after, faces):
+    """Displacement (mean, max, max relative to the garment's size) and max edge stretch (new/old)."""
+    v0 = np.asarray(vertices_before, dtype=np.float64)
+    v1 = np.asarray(vertices_after, dtype=np.float64)
+    if not len(v0):
+        return {"mean_move": 0.0, "max_move": 0.0, "max_move_rel": 0.0, "max_stretch": 1.0}
+    move = np.linalg.norm(v1 - v0, axis=1)
+    size = float(np.linalg.norm(np.ptp(v0, axis=0))) or 1.0
+    e = unique_edges(faces)
+    stretch = 1.0
+    if len(e):
+        l0 = np.linalg.norm(v0[e[:, 0]] - v0[e[:, 1]], axis=1)
+        l1 = np.linalg.norm(v1[e[:, 0]] - v1[e[:, 1]], axis=1)
+        ok = l0 > 0
+        stretch = float((l1[ok] / l0[ok]).max(initial=1.0))
+    return {"mean_move": float(move.mean()), "max_move": float(move.max()), "max_move_rel": float(move.max() / size),
+            "max_stretch": stretch}
+
+
+def removed_area_share(vertices, faces, removed) -> float:
+    f = np.asarray(faces, dtype=np.int64)
+    if not len(f):
+        return 0.0
+    tri = np.asarray(vertices, dtype=np.float64)[f]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    total = area.sum()
+    return float(area[np.asarray(removed)].sum() / total) if total > 0 else 0.0

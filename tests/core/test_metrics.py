@@ -1,6 +1,7 @@
 """core.metrics crossings against brute-force segment-triangle tests."""
 
 import numpy as np
+import pytest
 import trimesh
 
 from core.metrics import crossings, layer_crossings, unique_edges
@@ -50,3 +51,68 @@ def test_empty_and_degenerate_meshes():
     # zero-length edges (a collapsed triangle) are skipped, not crossing
     v = np.array([[0, 0, 0], [0, 0, 0], [0, 0, 0]], float)
     assert crossings(a.vertices, a.faces, v, [[0, 1, 2]]) == 0
+
+
+def ray_sphere_t(o, d, r):
+    """Distance to the first intersection with a sphere of radius r at the origin (inf on miss)."""
+    d = d / np.linalg.norm(d, axis=1, keepdims=True)
+    b = np.einsum("ij,ij->i", o, d)
+    c = np.einsum("ij,ij->i", o, o) - r * r
+    disc = b * b - c
+    with np.errstate(invalid="ignore"):
+        return np.where(disc > 0, -b - np.sqrt(disc), np.inf)
+
+
+def test_poke_through_zero_when_ordered_and_analytic_when_reversed():
+    from core.metrics import camera_ring, poke_through
+
+    inner = trimesh.creation.icosphere(subdivisions=4, radius=1.0)
+    outer = trimesh.creation.icosphere(subdivisions=4, radius=1.05)
+    cams = camera_ring([0, 0, 0], 1.05, views=4, resolution=64)
+    share, poked, covered = poke_through([(inner.vertices, inner.faces), (outer.vertices, outer.faces)],
+                                         depth=0.2, cameras=cams)
+    assert poked == 0 and covered > 0
+    # labelled the wrong way round, the outer sphere is "lower": every pixel over the inner
+    # sphere shows it poking through; compare with exact ray-sphere coverage
+    share, _, _ = poke_through([(outer.vertices, outer.faces), (inner.vertices, inner.faces)],
+                               depth=0.2, cameras=cams)
+    t_out = np.concatenate([ray_sphere_t(o, d, 1.05) for o, d in cams])
+    t_in = np.concatenate([ray_sphere_t(o, d, 1.0) for o, d in cams])
+    with np.errstate(invalid="ignore"):
+        expected = (t_in - t_out <= 0.2).sum() / np.isfinite(t_out).sum()
+    assert share == pytest.approx(expected, abs=0.01)  # tessellation of the spheres
+    # a short depth sees nothing: the spheres are 0.05 apart
+    assert poke_through([(outer.vertices, outer.faces), (inner.vertices, inner.faces)],
+                        depth=0.03, cameras=cams)[1] == 0
+
+
+def test_new_holes_limits():
+    from core.metrics import new_holes
+
+    inner = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
+    outer = trimesh.creation.icosphere(subdivisions=3, radius=1.05)
+    layers = [(inner.vertices, inner.faces), (outer.vertices, outer.faces)]
+    assert new_holes(layers, layers) == 0
+    # removing the hidden inner layer opens nothing
+    assert new_holes(layers, [(inner.vertices, inner.faces[:0]), layers[1]]) == 0
+    # removing everything opens everything
+    assert new_holes(layers, [(inner.vertices, inner.faces[:0]), (outer.vertices, outer.faces[:0])]) == 1.0
+
+
+def test_distortion_of_a_uniform_scale():
+    from core.metrics import distortion
+
+    m = trimesh.creation.icosphere(subdivisions=2)
+    out = distortion(m.vertices, m.vertices * 1.1, m.faces)
+    assert out["max_stretch"] == pytest.approx(1.1)
+    assert out["max_move"] == pytest.approx(0.1)
+    assert out["max_move_rel"] == pytest.approx(0.1 / np.linalg.norm(np.ptp(m.vertices, axis=0)))
+
+
+def test_removed_area_share_of_half_a_square():
+    from core.metrics import removed_area_share
+
+    v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    f = np.array([[0, 1, 2], [0, 2, 3]])
+    assert removed_area_share(v, f, np.array([True, False])) == pytest.approx(0.5)
+    assert removed_area_share(v, f[:0], np.zeros(0, bool)) == 0.0
