@@ -104,7 +104,8 @@ def _vertex_triangles(faces: np.ndarray, n_vertices: int, width: int) -> np.ndar
     return table
 
 
-def nearest_on_surface(points, vertices, faces, k: int = 8, ring_width: int = 12) -> BodyCorrespondence:
+def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
+                       chunk: int = 65536) -> BodyCorrespondence:
     """Nearest point on a triangle surface for each point.
 
     Candidates are the triangles around the ``k`` nearest vertices (a kd-tree), which
@@ -112,28 +113,30 @@ def nearest_on_surface(points, vertices, faces, k: int = 8, ring_width: int = 12
     surfaces whose triangles are small against the distance to the points' neighbours.
     """
     points = np.asarray(points, dtype=np.float64)
-    if not len(points):
+    n = len(points)
+    if not n:
         return BodyCorrespondence(np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0))
     k = min(k, len(vertices))
     _, near = cKDTree(vertices).query(points, k=k)
-    near = near.reshape(len(points), -1)
-    cand = _vertex_triangles(faces, len(vertices), ring_width)[near].reshape(len(points), -1)
-    best_d = np.full(len(points), np.inf)
-    best_t = np.zeros(len(points), dtype=np.int64)
-    best_w = np.zeros((len(points), 3))
-    for j in range(cand.shape[1]):
-        t = cand[:, j]
-        ok = t >= 0
-        if not ok.any():
-            continue
-        tri = vertices[faces[t[ok]]]
-        w = closest_point_on_triangles(points[ok], tri[:, 0], tri[:, 1], tri[:, 2])
-        q = np.einsum("ij,ijk->ik", w, tri)
-        d = np.linalg.norm(points[ok] - q, axis=1)
-        idx = np.flatnonzero(ok)
-        better = d < best_d[idx]
-        sel = idx[better]
-        best_d[sel], best_t[sel], best_w[sel] = d[better], t[ok][better], w[better]
+    near = near.reshape(n, -1)
+    incident = _vertex_triangles(faces, len(vertices), ring_width)
+    best_t = np.zeros(n, dtype=np.int64)
+    best_w = np.zeros((n, 3))
+    best_d = np.full(n, np.inf)
+    for start in range(0, n, chunk):
+        sl = slice(start, min(n, start + chunk))
+        cand = incident[near[sl]].reshape(sl.stop - sl.start, -1)
+        row, col = np.nonzero(cand >= 0)
+        tri_id = cand[row, col]
+        tri = vertices[faces[tri_id]]
+        p = points[sl][row]
+        w = closest_point_on_triangles(p, tri[:, 0], tri[:, 1], tri[:, 2])
+        d = np.linalg.norm(p - np.einsum("ij,ijk->ik", w, tri), axis=1)
+        # per point, the candidate with the smallest distance
+        order = np.lexsort((d, row))
+        first = order[np.r_[True, row[order][1:] != row[order][:-1]]]
+        pts = row[first] + start
+        best_t[pts], best_w[pts], best_d[pts] = tri_id[first], w[first], d[first]
     return BodyCorrespondence(best_t, best_w, best_d)
 
 

@@ -64,11 +64,20 @@ class _SegmentScenes:
         self._bounds = {}
         self.built = 0
 
+    def full(self):
+        """One scene over all of the layer's triangles."""
+        if "all" not in self._scenes:
+            self._scenes["all"] = RayScene(self.vertices, self.faces)
+            self.built += 1
+        return self._scenes["all"]
+
     def get(self, segment):
         if segment not in self._scenes:
             ids = np.flatnonzero(self.face_segment == segment)
             if not len(ids):
                 self._scenes[segment] = None
+            elif len(ids) == len(self.faces):
+                self._scenes[segment] = (self.full(), ids)  # one segment: share the full scene
             else:
                 self._scenes[segment] = (RayScene(self.vertices, self.faces[ids]), ids)
                 self.built += 1
@@ -122,7 +131,7 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
     return best_t, best_layer, best_face, rays
 
 
-def _spread_from_hits(vertices, faces, hit_points, amplitude, seed_vertices, falloff=None):
+def _spread_from_hits(vertices, faces, adjacency, hit_points, amplitude, seed_vertices, falloff=None):
     """Per-vertex inward move near a higher layer's hem (Fig. 4.9-4.10).
 
     Each hit moves nearby vertices by amplitude * exp(-x^2 / 2c^2), x their distance from
@@ -141,7 +150,7 @@ def _spread_from_hits(vertices, faces, hit_points, amplitude, seed_vertices, fal
     lengths = np.linalg.norm(vertices[faces[:, 1]] - vertices[faces[:, 0]], axis=1)
     shortest = max(float(lengths[lengths > 0].min(initial=edge)), 1e-3 * edge, 1e-300)
     rings = int(min(256, np.ceil(reach / shortest) + 1))
-    near_patch = ring_distance(vertex_adjacency(faces, len(vertices)), np.unique(seed_vertices), rings) >= 0
+    near_patch = ring_distance(adjacency, np.unique(seed_vertices), rings) >= 0
     candidates = np.flatnonzero(near_patch)
     out = np.zeros(len(vertices))
     # the "ndarray" form keeps pairs at distance 0 (a hit exactly on a vertex)
@@ -253,6 +262,10 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
 
     verts = [v.copy() for v, _ in garr]
     faces = [f for _, f in garr]
+    # Faces never change, so each garment's edges, hem points and adjacency are found once.
+    edges = [unique_edges(f) for f in faces]
+    hems = [np.flatnonzero(boundary_vertices(f, len(v))) for v, f in zip(verts, faces, strict=True)]
+    adjacency = [None] * n_g
     fseg = [_face_segment(f, s) for f, s in zip(faces, vseg, strict=True)]
     scenes = [_SegmentScenes(verts[i], faces[i], fseg[i]) for i in range(n_g)]
     rays = {"boundary": 0, "push": 0, "hidden": 0}
@@ -270,8 +283,8 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
                 continue
             hit_points, hit_amp, seeds = [], [], []
             for n_hi in range(k + 1, n_g):
-                hv, hf = verts[n_hi], faces[n_hi]
-                b = np.flatnonzero(boundary_vertices(hf, len(hv)))
+                hv = verts[n_hi]
+                b = hems[n_hi]
                 if not len(b):
                     continue
                 t, layer, face, r = _trace_layers(hv[b], normals[n_hi][b], probe_len[n_hi][b], vseg[n_hi][b],
@@ -283,7 +296,9 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
                 seeds.append(f[face[hit]].ravel())
             if not sum(len(a) for a in hit_amp):
                 continue
-            spread = _spread_from_hits(v, f, np.concatenate(hit_points), np.concatenate(hit_amp),
+            if adjacency[k] is None:
+                adjacency[k] = vertex_adjacency(f, len(v))
+            spread = _spread_from_hits(v, f, adjacency[k], np.concatenate(hit_points), np.concatenate(hit_amp),
                                        np.concatenate(seeds), params.get("falloff"))
             verts[k] = v - normals[k] * spread[:, None]
             moved_by["boundary"] += int((spread > 0).sum())
@@ -326,9 +341,9 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
                 lo_j, hi_j = verts[j].min(0), verts[j].max(0)
                 if (lo_k > hi_j).any() or (hi_k < lo_j).any():
                     continue
-                scene_j = RayScene(verts[j], faces[j])
-                e = unique_edges(f)
-                cross = crossing_edges(v, f, scene_j)
+                scene_j = scenes[j].full()
+                e = edges[k]
+                cross = crossing_edges(v, f, scene_j, edges=e)
                 rays["hidden"] += len(e)
                 if cross.any():
                     # a triangle goes when it owns a crossing edge
@@ -336,8 +351,8 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
                     fe = np.sort(np.stack([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]], 1), axis=2)
                     removed[k] |= np.isin(fe[..., 0] * len(v) + fe[..., 1], key).any(1)
                 # and where a higher layer's edge pierces one of this layer's triangles
-                scene_k = RayScene(v, f)
-                ej = unique_edges(faces[j])
+                scene_k = scenes[k].full()
+                ej = edges[j]
                 if len(ej):
                     start = verts[j][ej[:, 0]]
                     vec = verts[j][ej[:, 1]] - start

@@ -5,24 +5,21 @@ from __future__ import annotations
 import numpy as np
 
 from .rays import RayScene
+from .topology import edges_with_counts
 
 
 def unique_edges(faces) -> np.ndarray:
-    f = np.asarray(faces, dtype=np.int64)
-    if not len(f):
-        return np.zeros((0, 2), dtype=np.int64)
-    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
-    e = e[e[:, 0] != e[:, 1]]
-    return np.unique(e, axis=0)
+    return edges_with_counts(faces)[0]
 
 
-def crossing_edges(vertices_a, faces_a, scene_b: RayScene) -> np.ndarray:
-    """Bool mask over ``unique_edges(faces_a)``: True where the edge passes through a triangle of B.
+def crossing_edges(vertices_a, faces_a, scene_b: RayScene, edges=None) -> np.ndarray:
+    """Bool mask over ``edges`` (default ``unique_edges(faces_a)``): True where the edge
+    passes through a triangle of B.
 
     Exact segment-triangle tests: a ray from each edge's start, limited to the edge's length.
     """
     v = np.asarray(vertices_a, dtype=np.float64)
-    e = unique_edges(faces_a)
+    e = unique_edges(faces_a) if edges is None else edges
     if not len(e):
         return np.zeros(0, dtype=bool)
     start, vec = v[e[:, 0]], v[e[:, 1]] - v[e[:, 0]]

@@ -7,13 +7,18 @@ from scipy import sparse
 
 
 def edges_with_counts(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Unique undirected edges and how many triangles use each."""
+    """Unique undirected edges (sorted pairs, in lexicographic order) and how many triangles use each."""
     f = np.asarray(faces, dtype=np.int64)
     if not len(f):
         return np.zeros((0, 2), np.int64), np.zeros(0, np.int64)
-    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
-    e = e[e[:, 0] != e[:, 1]]
-    return np.unique(e, axis=0, return_counts=True)
+    a = np.concatenate([f[:, 0], f[:, 1], f[:, 2]])
+    b = np.concatenate([f[:, 1], f[:, 2], f[:, 0]])
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    keep = lo != hi
+    # One int64 key per edge: a 1-D unique is an order of magnitude faster than unique(axis=0).
+    stride = np.int64(hi.max() + 1) if len(hi) else np.int64(1)
+    keys, counts = np.unique(lo[keep] * stride + hi[keep], return_counts=True)
+    return np.column_stack([keys // stride, keys % stride]), counts
 
 
 def boundary_vertices(faces: np.ndarray, n_vertices: int) -> np.ndarray:
