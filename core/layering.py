@@ -103,14 +103,16 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
     """Each ray's first hit on each given layer (triangles of the ray's own segment only),
     combined over layers as the nearest or, with ``farthest``, the farthest of those hits.
 
-    Returns (t, layer index, face index within that layer, rays traced); layer -1 where
-    nothing was hit. Layers whose segment bounds are out of the rays' reach are skipped.
+    Returns (t, layer index, face index within that layer, rays traced, seconds tracing);
+    layer -1 where nothing was hit. Layers whose segment bounds are out of the rays'
+    reach are skipped.
     """
     n = len(origins)
     best_t = np.full(n, -np.inf if farthest else np.inf)
     best_layer = np.full(n, -1)
     best_face = np.full(n, -1)
     rays = 0
+    trace_s = 0.0
     for s in np.unique(segment):
         idx = np.flatnonzero(segment == s)
         reach = max_dist[idx, None]
@@ -121,14 +123,16 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
             if not scenes.bounds_overlap(s, lo, hi):
                 continue
             scene, ids = scenes.get(s)
+            t0 = time.perf_counter()
             hits = scene.intersect(origins[idx], directions[idx], max_dist=max_dist[idx])
+            trace_s += time.perf_counter() - t0
             rays += len(idx)
             closer = hits.hit & ((hits.t > best_t[idx]) if farthest else (hits.t < best_t[idx]))
             sel = idx[closer]
             best_t[sel] = hits.t[closer]
             best_layer[sel] = k
             best_face[sel] = ids[hits.face[closer]]
-    return best_t, best_layer, best_face, rays
+    return best_t, best_layer, best_face, rays, trace_s
 
 
 def _spread_from_hits(vertices, faces, adjacency, hit_points, amplitude, seed_vertices, falloff=None):
@@ -217,8 +221,9 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     n_seg = int(body_seg.max()) + 1
     probe = params.get("probe_distance")
     radius = None
+    body_scene = RayScene(bv, bf)
     if probe is None:
-        radius = local_radius(bv, bf, body_normals)
+        radius = local_radius(bv, bf, body_normals, scene=body_scene)
         l_seg = np.array([np.median(radius[body_seg == s]) if (body_seg == s).any() else np.median(radius)
                           for s in range(n_seg)])
     else:
@@ -271,6 +276,19 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     rays = {"boundary": 0, "push": 0, "hidden": 0}
     moved_by = {"boundary": 0, "push": 0}
 
+    body_points = [c.points(bv, bf) for c in corr]
+    floor_clamped = 0
+
+    def body_floor(k, v, idx, move):
+        """Cap inward moves so layer k keeps (k+1) d / (N+1) in front of the body: layers
+        squeezed against the body compress their gaps instead of entering it."""
+        nonlocal floor_clamped
+        floor = body_scene.intersect(v[idx], -normals[k][idx], max_dist=move)
+        outside = np.einsum("ij,ij->i", v[idx] - body_points[k][idx], normals[k][idx]) > 0
+        room = np.where(floor.hit & outside, floor.t - d * (k + 1) / (n_g + 1), np.inf)
+        floor_clamped += int((room < move).sum())
+        return np.clip(np.minimum(move, room), 0.0, None)
+
     def refresh(i):
         scenes[i] = _SegmentScenes(verts[i], faces[i], fseg[i])
 
@@ -287,8 +305,8 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
                 b = hems[n_hi]
                 if not len(b):
                     continue
-                t, layer, face, r = _trace_layers(hv[b], normals[n_hi][b], probe_len[n_hi][b], vseg[n_hi][b],
-                                                  scenes, [k])
+                t, layer, face, r, _ = _trace_layers(hv[b], normals[n_hi][b], probe_len[n_hi][b],
+                                                     vseg[n_hi][b], scenes, [k])
                 rays["boundary"] += r
                 hit = layer == k
                 hit_points.append(hv[b][hit] + normals[n_hi][b][hit] * t[hit, None])
@@ -300,6 +318,8 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
                 adjacency[k] = vertex_adjacency(f, len(v))
             spread = _spread_from_hits(v, f, adjacency[k], np.concatenate(hit_points), np.concatenate(hit_amp),
                                        np.concatenate(seeds), params.get("falloff"))
+            idx = np.flatnonzero(spread > 0)
+            spread[idx] = body_floor(k, v, idx, spread[idx])
             verts[k] = v - normals[k] * spread[:, None]
             moved_by["boundary"] += int((spread > 0).sum())
             refresh(k)
@@ -307,6 +327,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
 
     # --- push-behind: outer to inner, so each layer is pushed behind already-corrected ones
     t0 = time.perf_counter()
+    push_trace_s = 0.0
     if params.get("push_behind", True):
         for k in range(n_g - 2, -1, -1):
             v = verts[k]
@@ -315,11 +336,14 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
             # Probes start d outside the vertex, so a vertex less than d behind a higher layer
             # is caught too: a hit at t means the layer is (t - d) behind, and moving by t
             # leaves exactly d. Behind the farthest higher layer within reach, not the nearest.
-            t, layer, _, r = _trace_layers(v + normals[k] * d, -normals[k], probe_len[k] + d, vseg[k], scenes,
-                                           range(k + 1, n_g), farthest=True)
+            t, layer, _, r, secs = _trace_layers(v + normals[k] * d, -normals[k], probe_len[k] + d, vseg[k],
+                                                 scenes, range(k + 1, n_g), farthest=True)
             rays["push"] += r
+            push_trace_s += secs
             hit = layer >= 0
             if hit.any():
+                idx = np.flatnonzero(hit)
+                t[idx] = body_floor(k, v, idx, t[idx])
                 verts[k] = v.copy()
                 verts[k][hit] -= normals[k][hit] * t[hit, None]
                 moved_by["push"] += int(hit.sum())
@@ -377,9 +401,11 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         "probe_distance_per_vertex": bool(local_probe),
         "rays_boundary": rays["boundary"],
         "rays_push": rays["push"],
+        "push_trace_s": push_trace_s,
         "rays_hidden": rays["hidden"],
         "vertices_moved_boundary": moved_by["boundary"],
         "vertices_moved_push": moved_by["push"],
+        "vertices_held_by_body": floor_clamped,
         "faces_removed": int(sum(r.sum() for r in removed)),
         "vertices_far_from_body": far,
         "scenes_built": sum(s.built for s in scenes),

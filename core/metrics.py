@@ -145,22 +145,33 @@ def poke_through(layers, normals=None, depth=None, cameras=None):
     return (poked / covered if covered else 0.0), poked, covered
 
 
-def coverage(layers, cameras):
-    """Per camera, which pixels show any layer (bool arrays)."""
-    scene = RayScene(*_stack_layers(layers)[:2])
-    return [scene.intersect(o, d).hit for o, d in cameras]
+def first_layer(layers, cameras):
+    """Per camera, the layer index each pixel shows first (-1 for background)."""
+    v, f, lay = _stack_layers(layers)
+    scene = RayScene(v, f)
+    out = []
+    for o, d in cameras:
+        if not len(f):
+            out.append(np.full(len(o), -1))
+            continue
+        hits = scene.intersect(o, d)
+        out.append(np.where(hits.hit, lay[np.maximum(hits.face, 0)], -1))
+    return out
 
 
 def new_holes(layers_before, layers_after, cameras=None):
-    """Share of pixels covered before that show background after (removed faces opening holes)."""
+    """Share of pixels covered before that now show a lower layer or the background.
+
+    Removing hidden faces may only reveal higher layers; anything else is a hole. Compare
+    the corrected layers with and without face removal to isolate what removal opened.
+    """
     if cameras is None:
-        center, radius = _layer_bounds(layers_before)
-        cameras = camera_ring(center, radius)
-    before = coverage(layers_before, cameras)
-    after = coverage(layers_after, cameras)
-    lost = sum(int((b & ~a).sum()) for b, a in zip(before, after, strict=True))
-    total = sum(int(b.sum()) for b in before)
-    return lost / total if total else 0.0
+        cameras = camera_ring(*_layer_bounds(layers_before))
+    before = first_layer(layers_before, cameras)
+    after = first_layer(layers_after, cameras)
+    dropped = sum(int(((a < b) & (b >= 0)).sum()) for b, a in zip(before, after, strict=True))
+    total = sum(int((b >= 0).sum()) for b in before)
+    return dropped / total if total else 0.0
 
 
 def distortion(vertices_before, vertices_after, faces):

@@ -221,3 +221,14 @@ def test_bad_parameters_raise():
         resolve_layers(body_tube(), noisy_sleeves(), body_segments=np.zeros(3, int))
     with pytest.raises(ValueError, match="offset"):
         resolve_layers(body_tube(), noisy_sleeves(), offset=-1.0)
+
+
+def test_a_large_offset_never_pushes_garments_into_the_body():
+    """Four noisy layers a few mm apart and d = 5 mm: not enough room, so gaps compress."""
+    body = body_tube(n=40)
+    garments = noisy_sleeves(radii=(0.163, 0.166, 0.169, 0.172), noise=0.01, n=40, z0_step=0.04)
+    res = resolve_layers(body, garments, offset=0.005)
+    for g in res.garments:
+        assert brute_crossings(body.vertices, body.faces, g.vertices, g.faces) == 0
+        assert radial(g.vertices).min() > 0.15
+    assert res.stats["vertices_held_by_body"] > 0

@@ -97,6 +97,8 @@ def test_new_holes_limits():
     assert new_holes(layers, [(inner.vertices, inner.faces[:0]), layers[1]]) == 0
     # removing everything opens everything
     assert new_holes(layers, [(inner.vertices, inner.faces[:0]), (outer.vertices, outer.faces[:0])]) == 1.0
+    # removing the outer layer reveals the lower one everywhere: all holes
+    assert new_holes(layers, [layers[0], (outer.vertices, outer.faces[:0])]) == 1.0
 
 
 def test_distortion_of_a_uniform_scale():
