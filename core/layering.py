@@ -19,6 +19,7 @@ from scipy.spatial import cKDTree
 from .correspondence import BodyCorrespondence, local_radius, nearest_on_surface, vertex_normals
 from .metrics import crossing_edges, unique_edges
 from .rays import RayScene
+from .segmentation import get_scheme, hull_normals, is_skirt, skirt_segments
 from .topology import boundary_vertices, mean_edge_length, ring_distance, vertex_adjacency
 
 
@@ -58,8 +59,9 @@ def _per_garment(value, n, name):
 class _SegmentScenes:
     """Embree scenes over one layer's triangles, one per segment, built on first use."""
 
-    def __init__(self, vertices, faces, face_segment):
+    def __init__(self, vertices, faces, face_segment, links):
         self.vertices, self.faces, self.face_segment = vertices, faces, face_segment
+        self.links = links  # links[s, t]: rays of segment s meet triangles of segment t
         self._scenes = {}
         self._bounds = {}
         self.built = 0
@@ -73,7 +75,7 @@ class _SegmentScenes:
 
     def get(self, segment):
         if segment not in self._scenes:
-            ids = np.flatnonzero(self.face_segment == segment)
+            ids = np.flatnonzero(self.links[segment][self.face_segment])
             if not len(ids):
                 self._scenes[segment] = None
             elif len(ids) == len(self.faces):
@@ -85,7 +87,7 @@ class _SegmentScenes:
 
     def bounds_overlap(self, segment, lo, hi):
         if segment not in self._bounds:
-            seg = self.face_segment == segment
+            seg = self.links[segment][self.face_segment]
             pts = self.vertices[self.faces[seg]].reshape(-1, 3)
             self._bounds[segment] = (pts.min(0), pts.max(0)) if len(pts) else None
         box = self._bounds[segment]
@@ -177,8 +179,16 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         probe_distance (l_s): scalar, or one value per segment id. Default: with
             body_segments, each part's median local radius (half the chord through the
             body); without, the local radius at each garment vertex's nearest body point.
+        scheme: "S5", "S13" or a segmentation.Scheme naming the body_segments ids. With it, a
+            garment whose hem goes round both legs (skirt, dress) has its leg points put in the
+            skirt segment, traced against the torso and both legs, with normals from the
+            convex hull of those parts.
+        segment_links: (S, S) bool, which segments' triangles each segment's rays meet;
+            default each segment itself (and the skirt links of the scheme).
         garment_segments: list of per-vertex segment arrays (or None) overriding the nearest-body rule.
         global_normals: list of per-vertex (n,3) arrays (or None) overriding the body's normals.
+        correspondence: list of BodyCorrespondence (or None) from an earlier call on the same
+            garment topology (e.g. the rest pose), reused instead of searching again.
         boundary_pass, push_behind, remove_hidden: bool stages, all on by default.
         falloff: Gaussian radius c of the boundary pass's spread, scene units; default
             4 mean edge lengths of the lower layer.
@@ -186,7 +196,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     t_start = time.perf_counter()
     timings = {}
     known = {"offset", "probe_distance", "garment_segments", "global_normals", "boundary_pass", "push_behind",
-             "remove_hidden", "falloff"}
+             "remove_hidden", "falloff", "scheme", "segment_links", "correspondence"}
     unknown = set(params) - known
     if unknown:
         raise ValueError(f"unknown parameter(s) {sorted(unknown)}; known: {sorted(known)}")
@@ -208,6 +218,25 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         body_seg = body_seg.astype(np.int64)
     g_segments_in = _per_garment(params.get("garment_segments"), n_g, "garment_segments")
     g_normals_in = _per_garment(params.get("global_normals"), n_g, "global_normals")
+    g_corr_in = _per_garment(params.get("correspondence"), n_g, "correspondence")
+    scheme = params.get("scheme")
+    n_seg = int(body_seg.max()) + 1
+    if scheme is not None:
+        if body_segments is None:
+            raise ValueError("a segmentation scheme names body part ids: pass body_segments with it")
+        scheme = get_scheme(scheme)
+        if n_seg > scheme.skirt:
+            raise ValueError(f"body_segments of scheme {scheme.name} must be ids 0..{scheme.skirt - 1} "
+                             f"({', '.join(scheme.parts[:-1])}); got up to {n_seg - 1}")
+        n_seg = len(scheme.parts)
+    links = params.get("segment_links")
+    if links is None:
+        links = scheme.links() if scheme is not None else np.eye(n_seg, dtype=bool)
+    else:
+        links = np.asarray(links, dtype=bool)
+        if links.shape != (n_seg, n_seg):
+            raise ValueError(f"segment_links must be ({n_seg}, {n_seg}) booleans, got shape {links.shape}")
+        links = links | links.T | np.eye(n_seg, dtype=bool)
     diag = float(np.linalg.norm(np.ptp(bv, axis=0)))
     if diag <= 0:
         raise ValueError("body has zero size")
@@ -218,14 +247,17 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     # --- pre-processing: correspondence, global normals, segments, probe distance
     t0 = time.perf_counter()
     body_normals = vertex_normals(bv, bf)
-    n_seg = int(body_seg.max()) + 1
     probe = params.get("probe_distance")
     radius = None
     body_scene = RayScene(bv, bf)
     if probe is None:
         radius = local_radius(bv, bf, body_normals, scene=body_scene)
-        l_seg = np.array([np.median(radius[body_seg == s]) if (body_seg == s).any() else np.median(radius)
+        l_seg = np.array([np.median(radius[body_seg == s]) if (body_seg == s).any() else np.nan
                           for s in range(n_seg)])
+        # a segment with no body points of its own (the skirt) reaches as far as its linked parts
+        for s in np.flatnonzero(np.isnan(l_seg)):
+            linked = l_seg[links[s]]
+            l_seg[s] = np.nanmax(linked) if np.isfinite(linked).any() else np.median(radius)
     else:
         l_seg = np.broadcast_to(np.asarray(probe, dtype=np.float64), (n_seg,)).copy()
         if not np.isfinite(l_seg).all() or (l_seg < 0).any():
@@ -235,8 +267,14 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     local_probe = radius is not None and body_segments is None
     corr, normals, vseg, probe_len = [], [], [], []
     far = 0
-    for i, (v, _) in enumerate(garr):
-        c = nearest_on_surface(v, bv, bf)
+    skirts = []
+    for i, (v, f) in enumerate(garr):
+        c = g_corr_in[i]
+        if c is None:
+            c = nearest_on_surface(v, bv, bf)
+        elif len(c.triangle) != len(v) or (len(c.triangle) and c.triangle.max() >= len(bf)):
+            raise ValueError(f"correspondence[{i}] is for another mesh: {len(c.triangle)} points for "
+                             f"{len(v)} vertices, or triangles beyond the body's {len(bf)}")
         corr.append(c)
         if g_normals_in[i] is not None:
             n = np.asarray(g_normals_in[i], dtype=np.float64)
@@ -253,6 +291,12 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         elif len(v):
             corner = bf[c.triangle, np.argmax(c.bary, axis=1)]
             s = body_seg[corner]
+            if scheme is not None and is_skirt(f, s, scheme):
+                s = skirt_segments(s, scheme)
+                skirts.append(i)
+                on_skirt = s == scheme.skirt
+                if g_normals_in[i] is None and on_skirt.any():
+                    n[on_skirt] = hull_normals(bv, body_seg, (scheme.torso, *scheme.skirt_spans), v[on_skirt])
         else:
             s = np.zeros(0, dtype=np.int64)
         vseg.append(s)
@@ -272,7 +316,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     hems = [np.flatnonzero(boundary_vertices(f, len(v))) for v, f in zip(verts, faces, strict=True)]
     adjacency = [None] * n_g
     fseg = [_face_segment(f, s) for f, s in zip(faces, vseg, strict=True)]
-    scenes = [_SegmentScenes(verts[i], faces[i], fseg[i]) for i in range(n_g)]
+    scenes = [_SegmentScenes(verts[i], faces[i], fseg[i], links) for i in range(n_g)]
     rays = {"boundary": 0, "push": 0, "hidden": 0}
     moved_by = {"boundary": 0, "push": 0}
 
@@ -290,7 +334,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         return np.clip(np.minimum(move, room), 0.0, None)
 
     def refresh(i):
-        scenes[i] = _SegmentScenes(verts[i], faces[i], fseg[i])
+        scenes[i] = _SegmentScenes(verts[i], faces[i], fseg[i], links)
 
     # --- boundary pass (Fig. 4.10): higher layers' hem points look outward for lower layers
     t0 = time.perf_counter()
@@ -396,6 +440,8 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         **timings,
         "garments": n_g,
         "segments": n_seg,
+        "scheme": scheme.name if scheme is not None else None,
+        "skirts": skirts,
         "offset": d,
         "probe_distance": l_seg.tolist(),
         "probe_distance_per_vertex": bool(local_probe),

@@ -1,0 +1,206 @@
+"""Body-part segmentation and the tracing hierarchy (seed 4.4 pre-processing 2, Fig. 4.7).
+
+A scheme names the segment ids: the seed's static S=5 (torso, right arm, left arm, right
+leg, left leg, then the skirt) and a 13-part one for posed figures. Probe rays of a
+segment only meet triangles of the segments it is linked to: itself, and for the skirt
+the torso and both legs (a skirt or dress spans both legs, so its triangles cannot be
+split between them).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import ConvexHull, QhullError, cKDTree
+
+from .topology import edges_with_counts
+
+
+@dataclass(frozen=True)
+class Scheme:
+    name: str
+    parts: tuple  # segment id -> part name; the last is always "skirt"
+    # the parts a skirt spans besides the torso (it is traced against these and the torso)
+    skirt_spans: tuple
+
+    @property
+    def skirt(self) -> int:
+        return len(self.parts) - 1
+
+    @property
+    def torso(self) -> int:
+        return self.parts.index("torso")
+
+    def side(self, side: str) -> tuple:
+        return tuple(i for i, p in enumerate(self.parts) if p.startswith(side + "_"))
+
+    def leg_parts(self, side: str) -> tuple:
+        return tuple(i for i in self.side(side) if i in self.skirt_spans)
+
+    def links(self) -> np.ndarray:
+        """Which segments' triangles a probe ray of each segment meets (symmetric bool matrix)."""
+        n = len(self.parts)
+        m = np.eye(n, dtype=bool)
+        for p in (self.torso, *self.skirt_spans):
+            m[self.skirt, p] = m[p, self.skirt] = True
+        return m
+
+
+S5 = Scheme("S5", ("torso", "right_arm", "left_arm", "right_leg", "left_leg", "skirt"), skirt_spans=(3, 4))
+# The seed names S=13 for dynamic poses without listing the parts; ours splits each limb
+# at the elbow/knee and wrist/ankle, where posed figures bend (the head stays with the torso).
+S13 = Scheme("S13", ("torso", "right_upper_arm", "left_upper_arm", "right_forearm", "left_forearm", "right_hand",
+                     "left_hand", "right_thigh", "left_thigh", "right_shin", "left_shin", "right_foot", "left_foot",
+                     "skirt"), skirt_spans=(7, 8, 9, 10))
+SCHEMES = {"S5": S5, "S13": S13}
+
+
+def get_scheme(scheme) -> Scheme:
+    if isinstance(scheme, Scheme):
+        return scheme
+    if scheme in SCHEMES:
+        return SCHEMES[scheme]
+    raise ValueError(f"unknown segmentation scheme {scheme!r}; use one of {sorted(SCHEMES)}")
+
+
+# Keyword -> limb, first match wins (so "forearm" is tested before "arm", "upleg" before "leg").
+_LIMBS = (
+    ("hand", ("hand", "finger", "thumb", "index", "middle", "ring", "pinky", "wrist", "palm")),
+    ("forearm", ("forearm", "lowerarm", "lower_arm", "elbow")),
+    ("upper_arm", ("upperarm", "upper_arm", "humerus", "arm")),
+    ("foot", ("foot", "toe", "ankle", "heel", "ball")),
+    ("thigh", ("thigh", "upleg", "upperleg", "upper_leg", "hip", "femur")),
+    ("shin", ("shin", "calf", "knee", "lowerleg", "lower_leg", "leg")),
+)
+_S5_LIMB = {"hand": "arm", "forearm": "arm", "upper_arm": "arm", "foot": "leg", "thigh": "leg", "shin": "leg"}
+
+
+def _side(name: str) -> str | None:
+    low = name.lower()
+    if "left" in low or re.search(r"(^|[^a-z])l([^a-z]|$)", low):
+        return "left"
+    if "right" in low or re.search(r"(^|[^a-z])r([^a-z]|$)", low):
+        return "right"
+    return None
+
+
+def part_of_group(name: str, scheme="S5") -> int:
+    """Segment id for a vertex-group or bone name (Rigify ``thigh.L``, Mixamo ``LeftUpLeg``,
+    SMPL ``L_Knee``, or the scheme's own part names). Names without a side, and shoulders,
+    spine, neck and head, belong to the torso."""
+    scheme = get_scheme(scheme)
+    low = name.lower()
+    if low in scheme.parts:
+        return scheme.parts.index(low)
+    side = _side(name)
+    if side is None or any(k in low for k in ("shoulder", "clavicle", "collar", "scapula")):
+        return scheme.torso
+    for limb, keys in _LIMBS:
+        if any(k in low for k in keys):
+            part = f"{side}_{limb if scheme is not S5 else _S5_LIMB[limb]}"
+            if part in scheme.parts:
+                return scheme.parts.index(part)
+            # a scheme without this limb split: the coarsest part of that side and limb
+            coarse = f"{side}_{_S5_LIMB[limb]}"
+            return scheme.parts.index(coarse) if coarse in scheme.parts else scheme.torso
+    return scheme.torso
+
+
+def segments_from_groups(weights, group_names, scheme="S5", vertices=None) -> np.ndarray:
+    """One segment id per vertex from skin weights or vertex groups.
+
+    weights: (n_vertices, n_groups) weights, 0 where a vertex is not in a group.
+    Each vertex takes the part with the largest summed weight; a vertex in no group takes
+    the part of the nearest vertex that has one (with ``vertices``), else the torso.
+    """
+    scheme = get_scheme(scheme)
+    w = np.asarray(weights, dtype=np.float64)
+    if w.ndim != 2 or w.shape[1] != len(group_names):
+        raise ValueError(f"weights must be (n_vertices, {len(group_names)}), one column per group; got {w.shape}")
+    if not np.isfinite(w).all():
+        raise ValueError("weights contain NaN or infinite values")
+    part = np.array([part_of_group(g, scheme) for g in group_names], dtype=np.int64)
+    per_part = np.zeros((len(w), len(scheme.parts)))
+    for p in np.unique(part):
+        per_part[:, p] = w[:, part == p].sum(1)
+    seg = np.argmax(per_part, axis=1)
+    none = per_part.max(1) <= 0
+    seg[none] = scheme.torso
+    if vertices is not None and none.any() and (~none).any():
+        v = np.asarray(vertices, dtype=np.float64)
+        _, j = cKDTree(v[~none]).query(v[none])
+        seg[none] = seg[~none][j]
+    return seg
+
+
+def boundary_loops(faces: np.ndarray, n_vertices: int) -> list:
+    """Vertex ids of each connected set of boundary edges (a hem, cuff or neckline)."""
+    e, count = edges_with_counts(faces)
+    b = e[count == 1]
+    if not len(b):
+        return []
+    from scipy import sparse
+
+    adj = sparse.coo_matrix((np.ones(len(b)), (b[:, 0], b[:, 1])), shape=(n_vertices, n_vertices))
+    _, label = connected_components(adj, directed=False)
+    on = np.unique(b.ravel())
+    return [on[label[on] == lab] for lab in np.unique(label[on])]
+
+
+def is_skirt(faces, vertex_segment, scheme="S5", min_share=0.1) -> bool:
+    """A garment is a skirt (or dress) when one of its hems goes round both legs: at least
+    ``min_share`` of that hem's points lie on each leg. Trouser hems go round one leg each."""
+    scheme = get_scheme(scheme)
+    seg = np.asarray(vertex_segment)
+    left, right = list(scheme.leg_parts("left")), list(scheme.leg_parts("right"))
+    for loop in boundary_loops(np.asarray(faces), len(seg)):
+        s = seg[loop]
+        if np.isin(s, left).mean() >= min_share and np.isin(s, right).mean() >= min_share:
+            return True
+    return False
+
+
+def skirt_segments(vertex_segment, scheme="S5") -> np.ndarray:
+    """A skirt's segment ids: its points on the legs form the skirt segment, the rest stay."""
+    scheme = get_scheme(scheme)
+    seg = np.asarray(vertex_segment, dtype=np.int64).copy()
+    seg[np.isin(seg, scheme.skirt_spans)] = scheme.skirt
+    return seg
+
+
+def hull_normals(body_vertices, body_segments, parts, points) -> np.ndarray:
+    """Outward normals for skirt points: from the convex hull of the body parts it spans.
+
+    Body normals between the legs point sideways at the other leg; the hull bridges the
+    gap, so its normals point out of the skirt as a whole (the seed's "manual intervention"
+    for skirts, done automatically).
+    """
+    from .correspondence import nearest_on_surface
+
+    v = np.asarray(body_vertices, dtype=np.float64)[np.isin(body_segments, parts)]
+    try:
+        hull = ConvexHull(v)
+    except (QhullError, ValueError) as err:
+        raise ValueError(f"the body parts {list(parts)} have no 3-D extent for a skirt hull: {err}") from None
+    used = np.unique(hull.simplices)
+    remap = np.full(len(v), -1)
+    remap[used] = np.arange(len(used))
+    hv, hf = v[used], remap[hull.simplices]
+    # qhull's simplices are not consistently wound: orient each outward from the centroid
+    tri = hv[hf]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    flip = np.einsum("ij,ij->i", n, tri.mean(1) - hv.mean(0)) < 0
+    hf[flip] = hf[flip][:, ::-1]
+    # the facet's own normal: a hull's few large facets would blend a bottom cap's -z into
+    # every vertex normal of the flat bridge between the legs
+    corr = nearest_on_surface(points, hv, hf)
+    tri = hv[hf[corr.triangle]]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+
+
+__all__ = ["S5", "S13", "SCHEMES", "Scheme", "boundary_loops", "get_scheme", "hull_normals", "is_skirt",
+           "part_of_group", "segments_from_groups", "skirt_segments"]

@@ -1,0 +1,175 @@
+"""Segmentation schemes, part names, skirt detection and the skirt's tracing hierarchy (Fig. 4.7)."""
+
+import numpy as np
+import pytest
+
+from core.layering import resolve_layers
+from core.segmentation import (
+    S5,
+    S13,
+    boundary_loops,
+    hull_normals,
+    is_skirt,
+    part_of_group,
+    segments_from_groups,
+    skirt_segments,
+)
+from sample_scenes.shapes import tube
+from tests.core.layered_cases import lower_body, mesh
+from tests.core.test_metrics import brute_crossings
+
+
+@pytest.mark.parametrize("name, s5, s13", [
+    ("upper_arm.L", "left_arm", "left_upper_arm"),
+    ("DEF-forearm.R", "right_arm", "right_forearm"),
+    ("hand.L", "left_arm", "left_hand"),
+    ("f_index.01.R", "right_arm", "right_hand"),
+    ("thigh.R", "right_leg", "right_thigh"),
+    ("shin.L", "left_leg", "left_shin"),
+    ("foot.L", "left_leg", "left_foot"),
+    ("mixamorig:LeftUpLeg", "left_leg", "left_thigh"),
+    ("mixamorig:RightLeg", "right_leg", "right_shin"),
+    ("mixamorig:LeftForeArm", "left_arm", "left_forearm"),
+    ("mixamorig:RightShoulder", "torso", "torso"),
+    ("mixamorig:Hips", "torso", "torso"),
+    ("L_Knee", "left_leg", "left_shin"),
+    ("R_Elbow", "right_arm", "right_forearm"),
+    ("spine.003", "torso", "torso"),
+    ("head", "torso", "torso"),
+    ("left_leg", "left_leg", "left_shin"),
+])
+def test_group_names_map_to_parts(name, s5, s13):
+    assert S5.parts[part_of_group(name, "S5")] == s5
+    assert S13.parts[part_of_group(name, "S13")] == s13
+
+
+def test_segments_from_weights_match_a_per_vertex_loop():
+    rng = np.random.default_rng(3)
+    names = ["thigh.L", "shin.L", "upper_arm.R", "spine", "hand.R"]
+    w = rng.random((200, len(names))) * (rng.random((200, len(names))) < 0.4)
+    seg = segments_from_groups(w, names, "S5")
+    part = [part_of_group(n, "S5") for n in names]
+    for i in range(len(w)):
+        total = {}
+        for g, p in enumerate(part):
+            total[p] = total.get(p, 0.0) + w[i, g]
+        want = max(total, key=lambda p: (total[p], -p)) if max(total.values()) > 0 else S5.torso
+        assert seg[i] == want
+
+
+def test_unweighted_vertices_take_the_nearest_weighted_part():
+    v = np.array([[0, 0, 0], [1, 0, 0], [0.1, 0, 0], [0.9, 0, 0]], float)
+    w = np.array([[1, 0], [0, 1], [0, 0], [0, 0]], float)
+    seg = segments_from_groups(w, ["thigh.L", "thigh.R"], "S5", vertices=v)
+    assert seg.tolist() == [4, 3, 4, 3]
+    with pytest.raises(ValueError, match="one column per group"):
+        segments_from_groups(w, ["thigh.L"], "S5")
+    with pytest.raises(ValueError, match="unknown segmentation scheme"):
+        segments_from_groups(w, ["a", "b"], "S7")
+
+
+def test_boundary_loops_of_an_open_tube():
+    v, f = tube(1.0, 0.0, 1.0, n_around=12, n_along=5)
+    loops = boundary_loops(f, len(v))
+    assert sorted(len(x) for x in loops) == [12, 12]
+    assert sorted(float(v[x, 2].mean()) for x in loops) == [0.0, 1.0]
+    v, f = tube(1.0, 0.0, 1.0, n_around=12, n_along=5, capped=True)
+    assert boundary_loops(f, len(v)) == []
+
+
+def _skirt(radius=0.18, z0=0.2, z1=0.62, n=64):
+    return mesh(*tube(radius, z0, z1, n_around=n, n_along=24))
+
+
+def _segments_by_nearest(body, ids, g):
+    from scipy.spatial import cKDTree
+    return ids[cKDTree(body.vertices).query(g.vertices)[1]]
+
+
+def test_a_skirt_hem_goes_round_both_legs_and_trouser_hems_do_not():
+    body, ids = lower_body()
+    skirt = _skirt()
+    assert is_skirt(skirt.faces, _segments_by_nearest(body, ids, skirt), "S5")
+    for x in (-0.08, 0.08):  # one trouser leg each
+        leg = mesh(*tube(0.085, 0.05, 0.49, n_around=32, n_along=12))
+        leg.apply_translation([x, 0, 0])
+        assert not is_skirt(leg.faces, _segments_by_nearest(body, ids, leg), "S5")
+    shirt = mesh(*tube(0.17, 0.6, 0.95, n_around=48, n_along=12))
+    assert not is_skirt(shirt.faces, _segments_by_nearest(body, ids, shirt), "S5")
+    seg = skirt_segments(np.array([0, 3, 4, 1]), "S5")
+    assert seg.tolist() == [0, 5, 5, 1]
+    links = S5.links()
+    assert links[5, [0, 3, 4, 5]].all() and not links[5, [1, 2]].any() and not links[3, 4]
+    assert S13.links()[S13.skirt, [0, 7, 8, 9, 10]].all()
+
+
+def test_skirt_normals_come_from_the_hull_of_both_legs():
+    body, ids = lower_body()
+    # In front of the gap between the legs the hull is the plane through the torso's rim
+    # (y 0.15, z 0.5) and the legs' front (y 0.07): it faces +y, tilted down by 0.08/0.5,
+    # where the nearer leg's own normal would lean sideways. At the side it is vertical.
+    pts = np.array([[0.0, 0.12, 0.3], [0.0, -0.12, 0.3], [0.2, 0.0, 0.3]])
+    n = hull_normals(body.vertices, ids, (0, 3, 4), pts)
+    front = np.array([0.0, 1.0, -0.08 / 0.5]) / np.hypot(1.0, 0.08 / 0.5)
+    np.testing.assert_allclose(n[0], front, atol=0.03)
+    np.testing.assert_allclose(n[1], front * [1, -1, 1], atol=0.03)
+    np.testing.assert_allclose(n[2], [1, 0, 0], atol=np.sin(np.pi / 48) + 1e-3)  # a facet of the 48-gon leg
+    with pytest.raises(ValueError, match="no 3-D extent"):
+        hull_normals(np.zeros((4, 3)), np.zeros(4, int), (0,), pts)
+
+
+def test_jacket_over_a_skirt_pushes_the_skirt_behind_it():
+    body, ids = lower_body()
+    skirt = _skirt()
+    jacket = mesh(*tube(0.17, 0.45, 0.95, n_around=64, n_along=24))  # inside the skirt on z 0.45-0.62
+    res = resolve_layers(body, [skirt, jacket], body_segments=ids, scheme="S5")
+    # the jacket's hem (z 0.45) is below the hips, round both legs: skirt-like too
+    assert res.stats["skirts"] == [0, 1]
+    assert (res.segments[0] == S5.skirt).sum() > 0.5 * len(skirt.vertices)
+    s, j = res.garments
+    assert brute_crossings(s.vertices, s.faces, j.vertices, j.faces) == 0
+    # where the jacket covers it, the skirt now lies inside the jacket's inscribed radius
+    covered = (skirt.vertices[:, 2] > 0.46) & (skirt.vertices[:, 2] < 0.6)
+    inner = 0.17 * np.cos(np.pi / 64)
+    assert (np.linalg.norm(s.vertices[covered, :2], axis=1) < inner).all()
+    assert not res.moved[1].any()
+
+
+def test_scheme_needs_body_segments_in_range():
+    body, ids = lower_body(n=16)
+    skirt = _skirt(n=16)
+    with pytest.raises(ValueError, match="pass body_segments"):
+        resolve_layers(body, [skirt], scheme="S5")
+    with pytest.raises(ValueError, match="ids 0..4"):
+        resolve_layers(body, [skirt], body_segments=np.where(ids == 4, 5, ids), scheme="S5")
+    with pytest.raises(ValueError, match="segment_links must be"):
+        resolve_layers(body, [skirt], body_segments=ids, segment_links=np.eye(2, dtype=bool))
+
+
+def test_reused_correspondence_gives_the_same_result():
+    body, ids = lower_body(n=24)
+    skirt, jacket = _skirt(n=32), mesh(*tube(0.17, 0.45, 0.95, n_around=32, n_along=12))
+    first = resolve_layers(body, [skirt, jacket], body_segments=ids, scheme="S5")
+    again = resolve_layers(body, [skirt, jacket], body_segments=ids, scheme="S5", correspondence=first.correspondence)
+    for a, b in zip(first.garments, again.garments, strict=True):
+        np.testing.assert_array_equal(a.vertices, b.vertices)
+    with pytest.raises(ValueError, match="for another mesh"):
+        resolve_layers(body, [jacket, skirt], body_segments=ids, correspondence=first.correspondence)
+
+
+def test_skirt_points_on_the_legs_meet_a_higher_layer_of_the_torso():
+    # The jacket is all torso (a user's override); the skirt's points below the hips are on
+    # the legs. Only the skirt segment, linked to the torso (Fig. 4.7), lets their rays meet it.
+    body, ids = lower_body()
+    skirt = _skirt()
+    jacket = mesh(*tube(0.17, 0.3, 0.95, n_around=64, n_along=24))
+    covered = (skirt.vertices[:, 2] > 0.31) & (skirt.vertices[:, 2] < 0.6)
+    inner = 0.17 * np.cos(np.pi / 64)
+    segs = [None, np.zeros(len(jacket.vertices), int)]
+    plain = resolve_layers(body, [skirt, jacket], body_segments=ids, garment_segments=segs, remove_hidden=False)
+    on_legs = covered & np.isin(plain.segments[0], (3, 4))
+    assert on_legs.sum() > 100
+    assert (np.linalg.norm(plain.garments[0].vertices[on_legs, :2], axis=1) > inner).all()
+    res = resolve_layers(body, [skirt, jacket], body_segments=ids, garment_segments=segs, scheme="S5",
+                         remove_hidden=False)
+    assert (np.linalg.norm(res.garments[0].vertices[covered, :2], axis=1) < inner).all()
