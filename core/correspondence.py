@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .parallel import map_chunks
 from .rays import RayScene
 
 
@@ -48,8 +49,9 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
 def closest_point_on_triangles(p, a, b, c):
     """Closest point to p on triangle abc, all (n,3); returns barycentric weights (n,3).
 
-    Ericson, Real-Time Collision Detection, 5.1.5, vectorised; degenerate triangles
-    fall into the edge and vertex regions and stay finite.
+    Ericson, Real-Time Collision Detection, 5.1.5, vectorised: the Voronoi region tests run
+    in his order and ``np.select`` takes the first that holds. Degenerate triangles fall into
+    the edge and vertex regions and stay finite.
     """
     ab, ac, ap = b - a, c - a, p - a
     d1 = np.einsum("ij,ij->i", ab, ap)
@@ -63,29 +65,22 @@ def closest_point_on_triangles(p, a, b, c):
     va = d3 * d6 - d5 * d4
     vb = d5 * d2 - d1 * d6
     vc = d1 * d4 - d3 * d2
-    n = len(p)
-    w = np.zeros((n, 3))
-    done = np.zeros(n, dtype=bool)
-
-    def take(mask, wa, wb, wc):
-        m = mask & ~done
-        w[m] = np.stack([np.broadcast_to(x, (n,)) for x in (wa, wb, wc)], axis=-1)[m]
-        done[m] = True
-
     with np.errstate(divide="ignore", invalid="ignore"):
-        take((d1 <= 0) & (d2 <= 0), 1.0, 0.0, 0.0)
-        take((d3 >= 0) & (d4 <= d3), 0.0, 1.0, 0.0)
-        take((d6 >= 0) & (d5 <= d6), 0.0, 0.0, 1.0)
-        t = d1 / (d1 - d3)
-        take((vc <= 0) & (d1 >= 0) & (d3 <= 0), 1 - t, t, 0.0)
-        t = d2 / (d2 - d6)
-        take((vb <= 0) & (d2 >= 0) & (d6 <= 0), 1 - t, 0.0, t)
-        t = (d4 - d3) / ((d4 - d3) + (d5 - d6))
-        take((va <= 0) & ((d4 - d3) >= 0) & ((d5 - d6) >= 0), 0.0, 1 - t, t)
+        t_ab = d1 / (d1 - d3)
+        t_ac = d2 / (d2 - d6)
+        t_bc = (d4 - d3) / ((d4 - d3) + (d5 - d6))
         denom = va + vb + vc
-        v = vb / denom
-        ww = vc / denom
-        take(np.ones(n, dtype=bool), 1 - v - ww, v, ww)
+        v_in, w_in = vb / denom, vc / denom
+    regions = [(d1 <= 0) & (d2 <= 0),  # vertex a
+               (d3 >= 0) & (d4 <= d3),  # vertex b
+               (d6 >= 0) & (d5 <= d6),  # vertex c
+               (vc <= 0) & (d1 >= 0) & (d3 <= 0),  # edge ab
+               (vb <= 0) & (d2 >= 0) & (d6 <= 0),  # edge ac
+               (va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0)]  # edge bc
+    zero = 0.0
+    wb = np.select(regions, [zero, 1.0, zero, t_ab, zero, 1 - t_bc], v_in)
+    wc = np.select(regions, [zero, zero, 1.0, zero, t_ac, t_bc], w_in)
+    w = np.column_stack([1 - wb - wc, wb, wc])
     bad = ~np.isfinite(w).all(1)
     w[bad] = (1.0, 0.0, 0.0)
     return w
@@ -105,7 +100,7 @@ def _vertex_triangles(faces: np.ndarray, n_vertices: int, width: int) -> np.ndar
 
 
 def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
-                       chunk: int = 65536) -> BodyCorrespondence:
+                       chunk: int = 4096) -> BodyCorrespondence:
     """Nearest point on a triangle surface for each point.
 
     Candidates are the triangles around the ``k`` nearest vertices (a kd-tree), which
@@ -117,26 +112,30 @@ def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
     if not n:
         return BodyCorrespondence(np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0))
     k = min(k, len(vertices))
-    _, near = cKDTree(vertices).query(points, k=k)
+    _, near = cKDTree(vertices).query(points, k=k, workers=-1)
     near = near.reshape(n, -1)
     incident = _vertex_triangles(faces, len(vertices), ring_width)
     best_t = np.zeros(n, dtype=np.int64)
     best_w = np.zeros((n, 3))
-    best_d = np.full(n, np.inf)
-    for start in range(0, n, chunk):
-        sl = slice(start, min(n, start + chunk))
-        cand = incident[near[sl]].reshape(sl.stop - sl.start, -1)
-        row, col = np.nonzero(cand >= 0)
-        tri_id = cand[row, col]
-        tri = vertices[faces[tri_id]]
-        p = points[sl][row]
+    best_d = np.zeros(n)
+    tris = vertices[faces]  # (m, 3, 3)
+
+    def run(sl):
+        cand = incident[near[sl]].reshape(sl.stop - sl.start, -1)  # (c, width), -1 padded
+        width = cand.shape[1]
+        tri = tris[np.maximum(cand, 0)].reshape(-1, 3, 3)
+        p = np.repeat(points[sl], width, axis=0)
         w = closest_point_on_triangles(p, tri[:, 0], tri[:, 1], tri[:, 2])
-        d = np.linalg.norm(p - np.einsum("ij,ijk->ik", w, tri), axis=1)
-        # per point, the candidate with the smallest distance
-        order = np.lexsort((d, row))
-        first = order[np.r_[True, row[order][1:] != row[order][:-1]]]
-        pts = row[first] + start
-        best_t[pts], best_w[pts], best_d[pts] = tri_id[first], w[first], d[first]
+        d = np.linalg.norm(p - np.einsum("ij,ijk->ik", w, tri), axis=1).reshape(-1, width)
+        d[cand < 0] = np.inf
+        pick = np.argmin(d, axis=1)
+        rows = np.arange(len(pick))
+        best_t[sl] = cand[rows, pick]
+        best_w[sl] = w.reshape(-1, width, 3)[rows, pick]
+        best_d[sl] = d[rows, pick]
+
+    # numpy releases the GIL on these array sizes: slices run side by side on the cores
+    map_chunks(run, n, chunk)
     return BodyCorrespondence(best_t, best_w, best_d)
 
 

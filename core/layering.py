@@ -63,7 +63,9 @@ class _SegmentScenes:
         self.vertices, self.faces, self.face_segment = vertices, faces, face_segment
         self.links = links  # links[s, t]: rays of segment s meet triangles of segment t
         self._scenes = {}
+        self._ids = {}
         self._bounds = {}
+        self._face_centre = None
         self.built = 0
 
     def full(self):
@@ -73,9 +75,15 @@ class _SegmentScenes:
             self.built += 1
         return self._scenes["all"]
 
+    def ids(self, segment):
+        """The layer's triangles that rays of ``segment`` may meet."""
+        if segment not in self._ids:
+            self._ids[segment] = np.flatnonzero(self.links[segment][self.face_segment])
+        return self._ids[segment]
+
     def get(self, segment):
         if segment not in self._scenes:
-            ids = np.flatnonzero(self.links[segment][self.face_segment])
+            ids = self.ids(segment)
             if not len(ids):
                 self._scenes[segment] = None
             elif len(ids) == len(self.faces):
@@ -85,10 +93,26 @@ class _SegmentScenes:
                 self.built += 1
         return self._scenes[segment]
 
+    def get_near(self, segment, points, reach):
+        """A scene over only the segment's triangles within ``reach`` of some point, when that
+        is under half of them (built for one use); else the segment's cached scene."""
+        ids = self.ids(segment)
+        if self._face_centre is None:
+            tri = self.vertices[self.faces]
+            self._face_centre = tri.mean(1)
+            self._face_radius = float(np.linalg.norm(tri - self._face_centre[:, None], axis=2).max(initial=0.0))
+        dist, _ = cKDTree(points).query(self._face_centre[ids], distance_upper_bound=reach + self._face_radius)
+        keep = np.isfinite(dist)
+        if not keep.any():
+            return None
+        if keep.sum() * 2 > len(ids) or segment in self._scenes:
+            return self.get(segment)
+        self.built += 1
+        return RayScene(self.vertices, self.faces[ids[keep]]), ids[keep]
+
     def bounds_overlap(self, segment, lo, hi):
         if segment not in self._bounds:
-            seg = self.links[segment][self.face_segment]
-            pts = self.vertices[self.faces[seg]].reshape(-1, 3)
+            pts = self.vertices[self.faces[self.ids(segment)]].reshape(-1, 3)
             self._bounds[segment] = (pts.min(0), pts.max(0)) if len(pts) else None
         box = self._bounds[segment]
         return box is not None and bool((box[0] <= hi).all() and (box[1] >= lo).all())
@@ -101,13 +125,14 @@ def _face_segment(faces, vertex_segment):
     return np.where(s[:, 1] == s[:, 2], s[:, 1], s[:, 0])
 
 
-def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, farthest=False):
+def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, farthest=False, cull=False):
     """Each ray's first hit on each given layer (triangles of the ray's own segment only),
     combined over layers as the nearest or, with ``farthest``, the farthest of those hits.
 
     Returns (t, layer index, face index within that layer, rays traced, seconds tracing);
     layer -1 where nothing was hit. Layers whose segment bounds are out of the rays'
-    reach are skipped.
+    reach are skipped; with ``cull`` only triangles within that reach of the origins go
+    into the scene (for rays bunched along a few lines, such as hems).
     """
     n = len(origins)
     best_t = np.full(n, -np.inf if farthest else np.inf)
@@ -124,7 +149,10 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
             scenes = layer_scenes[k]
             if not scenes.bounds_overlap(s, lo, hi):
                 continue
-            scene, ids = scenes.get(s)
+            found = scenes.get_near(s, origins[idx], float(reach.max())) if cull else scenes.get(s)
+            if found is None:
+                continue
+            scene, ids = found
             t0 = time.perf_counter()
             hits = scene.intersect(origins[idx], directions[idx], max_dist=max_dist[idx])
             trace_s += time.perf_counter() - t0
@@ -343,21 +371,22 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
             v, f = verts[k], faces[k]
             if not len(f):
                 continue
-            hit_points, hit_amp, seeds = [], [], []
-            for n_hi in range(k + 1, n_g):
-                hv = verts[n_hi]
-                b = hems[n_hi]
-                if not len(b):
-                    continue
-                t, layer, face, r, _ = _trace_layers(hv[b], normals[n_hi][b], probe_len[n_hi][b],
-                                                     vseg[n_hi][b], scenes, [k])
-                rays["boundary"] += r
-                hit = layer == k
-                hit_points.append(hv[b][hit] + normals[n_hi][b][hit] * t[hit, None])
-                hit_amp.append(t[hit] + d)
-                seeds.append(f[face[hit]].ravel())
-            if not sum(len(a) for a in hit_amp):
+            # every higher layer's hem points at once: one scene of this layer near the hems
+            up = range(k + 1, n_g)
+            o = np.concatenate([verts[j][hems[j]] for j in up])
+            if not len(o):
                 continue
+            n_o = np.concatenate([normals[j][hems[j]] for j in up])
+            t, layer, face, r, _ = _trace_layers(o, n_o, np.concatenate([probe_len[j][hems[j]] for j in up]),
+                                                 np.concatenate([vseg[j][hems[j]] for j in up]), scenes, [k],
+                                                 cull=True)
+            rays["boundary"] += r
+            hit = layer == k
+            if not hit.any():
+                continue
+            hit_points = [o[hit] + n_o[hit] * t[hit, None]]
+            hit_amp = [t[hit] + d]
+            seeds = [f[face[hit]].ravel()]
             if adjacency[k] is None:
                 adjacency[k] = vertex_adjacency(f, len(v))
             spread = _spread_from_hits(v, f, adjacency[k], np.concatenate(hit_points), np.concatenate(hit_amp),

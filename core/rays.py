@@ -10,12 +10,11 @@ Without embreex the same answers come from trimesh's numpy intersector.
 
 from __future__ import annotations
 
-import os
-import threading
 import warnings
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
+
+from .parallel import map_chunks, thread_count
 
 try:
     from embreex import rtcore as _rtc
@@ -30,31 +29,8 @@ __all__ = ["HAVE_EMBREE", "RayHits", "RayScene", "thread_count"]
 
 # Below this many rays a thread hand-off costs more than it saves.
 _MIN_RAYS_PER_CHUNK = 16384
-_pool: ThreadPoolExecutor | None = None
-_pool_lock = threading.Lock()
 _device = None
 _warned_fallback = False
-
-
-def thread_count() -> int:
-    """Threads used for tracing: ``DEFORMRT_THREADS`` if set, else every core."""
-    env = os.environ.get("DEFORMRT_THREADS", "")
-    if env.strip():
-        try:
-            return max(1, int(env))
-        except ValueError:
-            raise ValueError(f"DEFORMRT_THREADS must be a whole number, got {env!r}") from None
-    return max(1, os.cpu_count() or 1)
-
-
-def _get_pool(threads: int) -> ThreadPoolExecutor:
-    global _pool
-    with _pool_lock:
-        if _pool is None or _pool._max_workers != threads:
-            if _pool is not None:
-                _pool.shutdown(wait=False)
-            _pool = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="deformrt-rays")
-        return _pool
 
 
 def _get_device():
@@ -260,12 +236,7 @@ class RayScene:
         return out
 
     def _map_chunks(self, fn, n):
-        chunks = max(1, min(self.threads * 4, n // _MIN_RAYS_PER_CHUNK))
-        if chunks == 1 or self.threads == 1:
-            return [fn(slice(0, n))]
-        bounds = np.linspace(0, n, chunks + 1).astype(int)
-        slices = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
-        return list(_get_pool(self.threads).map(fn, slices))
+        return map_chunks(fn, n, _MIN_RAYS_PER_CHUNK, self.threads)
 
     def _trace_embree(self, o, d, tmax):
         n = len(o)

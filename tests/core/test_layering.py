@@ -232,3 +232,28 @@ def test_a_large_offset_never_pushes_garments_into_the_body():
         assert brute_crossings(body.vertices, body.faces, g.vertices, g.faces) == 0
         assert radial(g.vertices).min() > 0.15
     assert res.stats["vertices_held_by_body"] > 0
+
+
+def test_culled_hem_scenes_give_the_same_hits_as_the_whole_layer():
+    from core.layering import _SegmentScenes, _trace_layers
+    from core.topology import boundary_vertices
+
+    lower, upper = noisy_sleeves(n=48)
+    f = np.asarray(lower.faces)
+    scenes = [_SegmentScenes(np.asarray(lower.vertices), f, np.zeros(len(f), int), np.eye(1, dtype=bool))]
+    hem = np.flatnonzero(boundary_vertices(upper.faces, len(upper.vertices)))
+    o = np.asarray(upper.vertices)[hem]
+    n = np.column_stack([o[:, :2], np.zeros(len(o))])
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    for sign in (1, -1):
+        reach = np.full(len(o), 0.03)
+        args = (o, sign * n, reach, np.zeros(len(o), int), scenes, [0])
+        t_cull, _, f_cull, _, _ = _trace_layers(*args, cull=True)
+        full = scenes[0].full().intersect(o, sign * n, max_dist=reach)
+        assert (np.isfinite(t_cull) == full.hit).all() and full.hit.any()
+        np.testing.assert_allclose(t_cull[full.hit], full.t[full.hit], atol=1e-12)
+        assert (f_cull[full.hit] == full.face[full.hit]).all()
+    # and the culled scene really is a part of the layer (the hems' bands)
+    _, ids = _SegmentScenes(np.asarray(lower.vertices), f, np.zeros(len(f), int), np.eye(1, dtype=bool)).get_near(
+        0, o, 0.03)
+    assert len(ids) < 0.5 * len(f)
