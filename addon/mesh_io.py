@@ -66,3 +66,25 @@ def new_mesh_object(name, vertices, faces, collection, smooth=True):
     obj = bpy.data.objects.new(name, mesh)
     collection.objects.link(obj)
     return obj
+
+
+def write_vertex_groups(obj, names, weights, levels: int = 1024) -> None:
+    """Vertex groups from an (n_vertices, n_groups) weight array.
+
+    Blender has no bulk setter for group weights; weights are rounded to 1/levels so each
+    group takes one ``VertexGroup.add`` call per distinct weight instead of one per vertex.
+    """
+    w = np.asarray(weights, dtype=np.float64)
+    if w.shape != (len(obj.data.vertices), len(names)):
+        raise ValueError(f"weights must be ({len(obj.data.vertices)}, {len(names)}), got {w.shape}")
+    q = np.rint(np.clip(w, 0.0, 1.0) * levels).astype(np.int64)
+    for g, name in enumerate(names):
+        col = q[:, g]
+        if not col.any():
+            continue
+        group = obj.vertex_groups.get(name) or obj.vertex_groups.new(name=name)
+        order = np.argsort(col, kind="stable")
+        values, starts = np.unique(col[order], return_index=True)
+        for value, idx in zip(values, np.split(order, starts[1:]), strict=True):
+            if value:
+                group.add(idx.tolist(), float(value) / levels, "REPLACE")

@@ -87,16 +87,24 @@ def _side(name: str) -> str | None:
     return None
 
 
-def part_of_group(name: str, scheme="S5") -> int:
+def smpl_naming(group_names) -> bool:
+    """SMPL-family rigs call the clavicle "Collar" or "Thorax" and the upper-arm joint
+    "Shoulder"; Rigify and Mixamo call the clavicle "shoulder"."""
+    return any(k in g.lower() for g in group_names for k in ("collar", "thorax"))
+
+
+def part_of_group(name: str, scheme="S5", smpl: bool = False) -> int:
     """Segment id for a vertex-group or bone name (Rigify ``thigh.L``, Mixamo ``LeftUpLeg``,
-    SMPL ``L_Knee``, or the scheme's own part names). Names without a side, and shoulders,
-    spine, neck and head, belong to the torso."""
+    SMPL ``L_Knee``, or the scheme's own part names). Names without a side, and clavicles,
+    spine, neck and head, belong to the torso. With ``smpl``, "Shoulder" is the upper arm."""
     scheme = get_scheme(scheme)
     low = name.lower()
     if low in scheme.parts:
         return scheme.parts.index(low)
     side = _side(name)
-    if side is None or any(k in low for k in ("shoulder", "clavicle", "collar", "scapula")):
+    if smpl and side is not None and "shoulder" in low:
+        low = "upper_arm"
+    if side is None or any(k in low for k in ("shoulder", "clavicle", "collar", "scapula", "thorax")):
         return scheme.torso
     for limb, keys in _LIMBS:
         if any(k in low for k in keys):
@@ -122,7 +130,8 @@ def segments_from_groups(weights, group_names, scheme="S5", vertices=None) -> np
         raise ValueError(f"weights must be (n_vertices, {len(group_names)}), one column per group; got {w.shape}")
     if not np.isfinite(w).all():
         raise ValueError("weights contain NaN or infinite values")
-    part = np.array([part_of_group(g, scheme) for g in group_names], dtype=np.int64)
+    smpl = smpl_naming(group_names)
+    part = np.array([part_of_group(g, scheme, smpl) for g in group_names], dtype=np.int64)
     per_part = np.zeros((len(w), len(scheme.parts)))
     for p in np.unique(part):
         per_part[:, p] = w[:, part == p].sum(1)
@@ -151,14 +160,16 @@ def boundary_loops(faces: np.ndarray, n_vertices: int) -> list:
 
 
 def is_skirt(faces, vertex_segment, scheme="S5", min_share=0.1) -> bool:
-    """A garment is a skirt (or dress) when one of its hems goes round both legs: at least
-    ``min_share`` of that hem's points lie on each leg. Trouser hems go round one leg each."""
+    """A garment is a skirt (or dress) when one of its hems goes round both legs: most of
+    that hem's points lie on the legs, at least ``min_share`` on each. Trouser hems go round
+    one leg each; a waistband lies mostly on the torso."""
     scheme = get_scheme(scheme)
     seg = np.asarray(vertex_segment)
     left, right = list(scheme.leg_parts("left")), list(scheme.leg_parts("right"))
     for loop in boundary_loops(np.asarray(faces), len(seg)):
         s = seg[loop]
-        if np.isin(s, left).mean() >= min_share and np.isin(s, right).mean() >= min_share:
+        on_left, on_right = np.isin(s, left).mean(), np.isin(s, right).mean()
+        if on_left >= min_share and on_right >= min_share and on_left + on_right >= 0.5:
             return True
     return False
 
@@ -203,4 +214,4 @@ def hull_normals(body_vertices, body_segments, parts, points) -> np.ndarray:
 
 
 __all__ = ["S5", "S13", "SCHEMES", "Scheme", "boundary_loops", "get_scheme", "hull_normals", "is_skirt",
-           "part_of_group", "segments_from_groups", "skirt_segments"]
+           "part_of_group", "segments_from_groups", "skirt_segments", "smpl_naming"]

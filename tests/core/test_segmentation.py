@@ -43,6 +43,13 @@ def test_group_names_map_to_parts(name, s5, s13):
     assert S13.parts[part_of_group(name, "S13")] == s13
 
 
+def test_smpl_shoulders_are_upper_arms():
+    assert S13.parts[part_of_group("L_Shoulder", "S13", smpl=True)] == "left_upper_arm"
+    assert S13.parts[part_of_group("L_Thorax", "S13", smpl=True)] == "torso"
+    seg = segments_from_groups(np.eye(2), ["R_Shoulder", "R_Collar"], "S5")
+    assert [S5.parts[s] for s in seg] == ["right_arm", "torso"]
+
+
 def test_segments_from_weights_match_a_per_vertex_loop():
     rng = np.random.default_rng(3)
     names = ["thigh.L", "shin.L", "upper_arm.R", "spine", "hand.R"]
@@ -94,6 +101,11 @@ def test_a_skirt_hem_goes_round_both_legs_and_trouser_hems_do_not():
         leg = mesh(*tube(0.085, 0.05, 0.49, n_around=32, n_along=12))
         leg.apply_translation([x, 0, 0])
         assert not is_skirt(leg.faces, _segments_by_nearest(body, ids, leg), "S5")
+    # a waistband round the hips touches both legs' tops but lies mostly on the torso
+    seg = np.array([0] * 6 + [3, 4])
+    ring = np.array([[i, (i + 1) % 8, 8] for i in range(8)])  # a fan: its rim is one loop of 8
+    assert not is_skirt(ring, np.r_[seg, 0], "S5")
+    assert is_skirt(ring, np.r_[np.array([0, 0, 3, 3, 3, 4, 4, 4]), 0], "S5")
     shirt = mesh(*tube(0.17, 0.6, 0.95, n_around=48, n_along=12))
     assert not is_skirt(shirt.faces, _segments_by_nearest(body, ids, shirt), "S5")
     seg = skirt_segments(np.array([0, 3, 4, 1]), "S5")
@@ -123,8 +135,8 @@ def test_jacket_over_a_skirt_pushes_the_skirt_behind_it():
     skirt = _skirt()
     jacket = mesh(*tube(0.17, 0.45, 0.95, n_around=64, n_along=24))  # inside the skirt on z 0.45-0.62
     res = resolve_layers(body, [skirt, jacket], body_segments=ids, scheme="S5")
-    # the jacket's hem (z 0.45) is below the hips, round both legs: skirt-like too
-    assert res.stats["skirts"] == [0, 1]
+    # the jacket's hem (z 0.45) is just below the torso, mostly on it: not a skirt
+    assert res.stats["skirts"] == [0]
     assert (res.segments[0] == S5.skirt).sum() > 0.5 * len(skirt.vertices)
     s, j = res.garments
     assert brute_crossings(s.vertices, s.faces, j.vertices, j.faces) == 0

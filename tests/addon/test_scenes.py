@@ -1,0 +1,155 @@
+"""The sample-scene builders in a bpy session: deterministic, on target, and interfering only
+where they should (garments alone clear the body, worn together they cross)."""
+
+import importlib
+
+import bpy
+import numpy as np
+import pytest
+
+TARGETS = {"fig_4_12": 250_000, "fig_4_13": 121_000}
+
+
+@pytest.fixture(scope="module")
+def ext(extension):
+    return extension
+
+
+def sub(ext, path):
+    """A submodule of the installed extension (``sub(ext, "core.metrics")``)."""
+    return importlib.import_module(f"{ext.__name__}.{path}")
+
+
+def layers(ext, body, garments):
+    io = sub(ext, "addon.mesh_io")
+    return [(a.vertices, a.triangles) for a in (io.read_mesh(o) for o in [body, *garments])]
+
+
+@pytest.fixture(scope="module", params=sorted(TARGETS))
+def seed_run(request, ext):
+    dressed = sub(ext, "sample_scenes.dressed")
+    body, rig, garments = getattr(dressed, request.param)()
+    return request.param, body, rig, garments, layers(ext, body, garments)
+
+
+def test_seed_runs_hit_their_triangle_targets(seed_run):
+    name, body, rig, garments, arrays = seed_run
+    total = sum(len(f) for _, f in arrays)
+    assert abs(total - TARGETS[name]) <= 0.1 * TARGETS[name], (name, total)
+    assert [g.deformrt.layer for g in garments] == [1, 2, 3, 4]
+    assert body.deformrt.role == "BODY" and all(g.deformrt.role == "GARMENT" for g in garments)
+
+
+def test_each_garment_clears_the_body_and_together_they_cross(seed_run, ext):
+    metrics = sub(ext, "core.metrics")
+    name, body, rig, garments, arrays = seed_run
+    cross = metrics.layer_crossings(arrays)
+    assert (cross[0] == 0).all(), f"{name}: garments cross the body: {cross[0]}"
+    # every pair of garments that overlaps on the body crosses somewhere
+    assert cross[1:, 1:].sum() > 1000
+    assert (cross[1:, 1:][~np.eye(len(garments), dtype=bool)] > 0).mean() >= 0.8
+    # garments have real hems: boundary edges
+    topo = sub(ext, "core.topology")
+    for v, f in arrays[1:]:
+        assert topo.boundary_vertices(f, len(v)).sum() > 50
+
+
+def test_armature_poses_body_and_garments(seed_run, ext):
+    io = sub(ext, "addon.mesh_io")
+    name, body, rig, garments, arrays = seed_run
+    arm = next(pb for pb in rig.pose.bones if pb.name in ("L_Elbow", "forearm.L"))
+    arm.rotation_mode = "XYZ"
+    arm.rotation_euler = (0.0, 0.0, 0.8)
+    try:
+        for obj, (v0, _) in zip([body, *garments], arrays, strict=True):
+            v = io.read_mesh(obj).vertices
+            assert np.isfinite(v).all()
+            moved = np.linalg.norm(v - v0, axis=1)
+            if obj is body or "sleeve" in obj.name.lower() or obj.name in ("Shirt", "Overshirt", "Jumpsuit"):
+                assert moved.max() > 0.05, obj.name
+    finally:
+        arm.rotation_euler = (0.0, 0.0, 0.0)
+
+
+def test_builders_are_deterministic(ext):
+    dressed = sub(ext, "sample_scenes.dressed")
+    coarse = (dressed.Layer("pants", 0.012), dressed.Layer("skirt", 0.010))
+    runs = []
+    for _ in range(2):
+        body, rig, garments = dressed.dress("stocky", coarse, seed=3, voxel=0.02, frames=3)
+        runs.append(layers(ext, body, garments))
+    for (va, fa), (vb, fb) in zip(*runs, strict=True):
+        np.testing.assert_array_equal(fa, fb)
+        np.testing.assert_array_equal(va, vb)
+    # and another seed gives other folds
+    body, rig, garments = dressed.dress("stocky", coarse, seed=4, voxel=0.02, frames=3)
+    assert not np.array_equal(layers(ext, body, garments)[1][0], runs[0][1][0])
+
+
+def test_the_skirt_is_found_as_a_skirt(ext):
+    dressed = sub(ext, "sample_scenes.dressed")
+    seg = sub(ext, "core.segmentation")
+    body, rig, garments = dressed.dress("stocky", (dressed.Layer("pants", 0.012), dressed.Layer("skirt", 0.010)),
+                                        seed=0, voxel=0.02, frames=0)
+    fig = sub(ext, "sample_scenes.figures")
+    stick = sub(ext, "sample_scenes.bodies").skin_body(fig.stick_figure())
+    parts = seg.segments_from_groups(stick.weights, stick.joint_names, "S5", vertices=stick.vertices)
+    from scipy.spatial import cKDTree
+
+    found = []
+    for g in garments:
+        arr = sub(ext, "addon.mesh_io").read_mesh(g)
+        found.append(seg.is_skirt(arr.triangles, parts[cKDTree(stick.vertices).query(arr.vertices)[1]], "S5"))
+    assert found == [False, True]
+
+
+def test_wooden_mannequin_reads_as_published(ext):
+    fig = sub(ext, "sample_scenes.figures").wooden()
+    assert fig.vertices.shape == (24256, 3) and fig.faces.shape == (48396, 3)
+    assert len(fig.joint_names) == 54
+    np.testing.assert_allclose(fig.weights.sum(1), 1.0, atol=1e-5)
+    # Blender axes: feet on the floor, head up, facing -y (toes forward), left hand at +x
+    assert abs(fig.vertices[:, 2].min()) < 1e-9 and 1.6 < fig.vertices[:, 2].max() < 1.9
+    j = {n: i for i, n in enumerate(fig.joint_names)}
+    assert fig.joints[j["L_Wrist"], 0] > 0.5 and fig.joints[j["L_Toe"], 1] < fig.joints[j["L_Ankle"], 1]
+
+
+def test_posed_scene_has_two_different_poses(ext):
+    dressed = sub(ext, "sample_scenes.dressed")
+    io = sub(ext, "addon.mesh_io")
+    body, rig, garments = dressed.posed(voxel=0.02, frames=2)
+    scene = bpy.context.scene
+    frames = []
+    for f in (1, 2):
+        scene.frame_set(f)
+        frames.append([io.read_mesh(o).vertices for o in [body, *garments]])
+    for a, b in zip(*frames, strict=True):
+        assert np.isfinite(b).all()
+        assert np.linalg.norm(a - b, axis=1).max() > 0.1  # the arms swing down tens of centimetres
+    scene.frame_set(1)
+
+
+def test_sheets_fall_onto_the_primitives(ext):
+    sheets = sub(ext, "sample_scenes.sheets")
+    io = sub(ext, "addon.mesh_io")
+    made, colliders = sheets.build(layers=2, per_sheet=512, frames=30)
+    assert [len(io.read_mesh(s).triangles) for s in made] == [512, 512]
+    z0 = [io.read_mesh(s).vertices[:, 2].min() for s in made]
+    for f in range(1, 31):
+        bpy.context.scene.frame_set(f)
+    z1 = [io.read_mesh(s).vertices[:, 2].min() for s in made]
+    assert all(b < a - 0.3 for a, b in zip(z0, z1, strict=True))
+    assert all(b > -0.01 for b in z1)  # on the floor or the primitives, not through them
+    with pytest.raises(ValueError, match="2 n\\^2"):
+        sheets.build(layers=1, per_sheet=1000)
+    with pytest.raises(ValueError, match="1-4"):
+        sheets.build(layers=5)
+
+
+def test_sea_scene_has_water_floor_and_anchor(ext):
+    anchor = sub(ext, "sample_scenes.sea").build()
+    scene = bpy.context.scene
+    assert anchor.name == "JellyfishAnchor"
+    water = scene.objects["SeaWater"]
+    assert water.active_material.node_tree.nodes.get("Principled Volume") is not None
+    assert "SeaFloor" in scene.objects and scene.camera is not None
