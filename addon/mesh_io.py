@@ -88,3 +88,30 @@ def write_vertex_groups(obj, names, weights, levels: int = 1024) -> None:
         for value, idx in zip(values, np.split(order, starts[1:]), strict=True):
             if value:
                 group.add(idx.tolist(), float(value) / levels, "REPLACE")
+
+
+def write_point_ints(obj, name: str, values) -> None:
+    """An integer per vertex as a mesh attribute (kept through modifiers such as Armature)."""
+    mesh = obj.data
+    attr = mesh.attributes.get(name)
+    if attr is not None:
+        mesh.attributes.remove(attr)
+    attr = mesh.attributes.new(name, "INT", "POINT")
+    attr.data.foreach_set("value", np.ascontiguousarray(values, dtype=np.int32))
+
+
+def read_point_ints(obj, name: str, depsgraph=None):
+    """The integer vertex attribute ``name`` of the evaluated mesh, or None if it has none."""
+    if depsgraph is None:
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+    evaluated = obj.evaluated_get(depsgraph)
+    mesh = evaluated.to_mesh()
+    try:
+        attr = mesh.attributes.get(name)
+        if attr is None or attr.domain != "POINT" or attr.data_type != "INT":
+            return None
+        out = np.empty(len(mesh.vertices), dtype=np.int32)
+        attr.data.foreach_get("value", out)
+    finally:
+        evaluated.to_mesh_clear()
+    return out.astype(np.int64)

@@ -1,5 +1,8 @@
 """Which objects of a scene take part in layering, in layer order."""
 
+# Integer vertex attributes holding a body's parts in each segmentation scheme (core.segmentation).
+PART_ATTRIBUTE = {"S5": "deformrt_part_s5", "S13": "deformrt_part_s13"}
+
 
 def is_tagged_mesh(obj) -> bool:
     return obj.type == "MESH" and obj.deformrt.role in {"BODY", "GARMENT"}

@@ -36,7 +36,7 @@ def measure(body, garments, corrected, normals, seconds, removed=None):
     moved_all = [(body.vertices, body.faces)]
     moved_all += [(c.vertices, g.faces) for g, c in zip(garments, corrected, strict=True)]
     n_body = vertex_normals(body.vertices, body.faces)
-    cams = metrics.camera_ring(*metrics._layer_bounds(before), views=8, resolution=128)
+    cams = metrics.camera_ring(*metrics.layer_bounds(before), views=8, resolution=128)
     poke_after = metrics.poke_through(after, normals=[n_body, *normals], cameras=cams)[0]
     cross = int(np.triu(metrics.layer_crossings(after)).sum())
     dist = [metrics.distortion(g.vertices, c.vertices, g.faces) for g, c in zip(garments, corrected, strict=True)]
@@ -58,7 +58,7 @@ def measure(body, garments, corrected, normals, seconds, removed=None):
 def before_metrics(body, garments, normals):
     layers = [(body.vertices, body.faces)] + [(g.vertices, g.faces) for g in garments]
     n_body = vertex_normals(body.vertices, body.faces)
-    cams = metrics.camera_ring(*metrics._layer_bounds(layers), views=8, resolution=128)
+    cams = metrics.camera_ring(*metrics.layer_bounds(layers), views=8, resolution=128)
     return (metrics.poke_through(layers, normals=[n_body, *normals], cameras=cams)[0],
             int(np.triu(metrics.layer_crossings(layers)).sum()))
 

@@ -86,7 +86,7 @@ def closest_point_on_triangles(p, a, b, c):
     return w
 
 
-def _vertex_triangles(faces: np.ndarray, n_vertices: int, width: int) -> np.ndarray:
+def incident_triangles(faces: np.ndarray, n_vertices: int, width: int) -> np.ndarray:
     """Up to ``width`` incident triangles per vertex, padded with -1."""
     order = np.argsort(faces.ravel(), kind="stable")
     verts = faces.ravel()[order]
@@ -114,7 +114,7 @@ def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
     k = min(k, len(vertices))
     _, near = cKDTree(vertices).query(points, k=k, workers=-1)
     near = near.reshape(n, -1)
-    incident = _vertex_triangles(faces, len(vertices), ring_width)
+    incident = incident_triangles(faces, len(vertices), ring_width)
     best_t = np.zeros(n, dtype=np.int64)
     best_w = np.zeros((n, 3))
     best_d = np.zeros(n)

@@ -16,7 +16,14 @@ import trimesh
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from .correspondence import BodyCorrespondence, local_radius, nearest_on_surface, vertex_normals
+from .correspondence import (
+    BodyCorrespondence,
+    closest_point_on_triangles,
+    incident_triangles,
+    local_radius,
+    nearest_on_surface,
+    vertex_normals,
+)
 from .metrics import crossing_edges, unique_edges
 from .rays import RayScene
 from .segmentation import get_scheme, hull_normals, is_skirt, skirt_segments
@@ -126,8 +133,9 @@ def _face_segment(faces, vertex_segment):
 
 
 def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, farthest=False, cull=False):
-    """Each ray's first hit on each given layer (triangles of the ray's own segment only),
-    combined over layers as the nearest or, with ``farthest``, the farthest of those hits.
+    """Each ray's first hit on each given layer (triangles of the ray's own segments only:
+    ``segment`` is (n,) or (n, 2) with -1 for no second one), combined over segments and
+    layers as the nearest or, with ``farthest``, the farthest of those hits.
 
     Returns (t, layer index, face index within that layer, rays traced, seconds tracing);
     layer -1 where nothing was hit. Layers whose segment bounds are out of the rays'
@@ -140,8 +148,9 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
     best_face = np.full(n, -1)
     rays = 0
     trace_s = 0.0
-    for s in np.unique(segment):
-        idx = np.flatnonzero(segment == s)
+    segs = np.asarray(segment).reshape(n, -1)  # a second column: the border segment, -1 for none
+    for s in np.unique(segs[segs >= 0]):
+        idx = np.flatnonzero((segs == s).any(1))
         reach = max_dist[idx, None]
         lo = (origins[idx] - reach).min(0)
         hi = (origins[idx] + reach).max(0)
@@ -163,6 +172,63 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
             best_layer[sel] = k
             best_face[sel] = ids[hits.face[closer]]
     return best_t, best_layer, best_face, rays, trace_s
+
+
+def _part_junctions(vertices, faces, segment):
+    """Body vertices where two parts meet: an edge to a vertex of another part (one surface),
+    or within half an edge of another part's surface (parts modelled apart that overlap at
+    the joints). Returns (positions, own part, other part)."""
+    e = unique_edges(faces)
+    cross = segment[e[:, 0]] != segment[e[:, 1]]
+    at = [e[cross, 0], e[cross, 1]]
+    other = [segment[e[cross, 1]], segment[e[cross, 0]]]
+    lengths = np.linalg.norm(vertices[e[:, 0]] - vertices[e[:, 1]], axis=1)
+    reach = 0.5 * float(lengths.mean()) if len(lengths) else 0.0
+    # another part's surface that close has a vertex among a vertex's nearest neighbours
+    # within an edge: test the triangles around those neighbours
+    k = min(16, len(vertices))
+    d, j = cKDTree(vertices).query(vertices, k=k, distance_upper_bound=float(lengths.max(initial=0.0)) + reach)
+    found = np.isfinite(d) & (segment[np.where(np.isfinite(d), j, 0)] != segment[:, None])
+    row = np.flatnonzero(found.any(1))
+    col = np.argmax(found[row], axis=1)  # the nearest neighbour of another part
+    if len(row):
+        nb = j[row, col]
+        tris = incident_triangles(faces, len(vertices), 8)[nb]  # (pairs, 8), -1 padded
+        pr, pc = np.nonzero(tris >= 0)
+        tri_id = tris[pr, pc]
+        # only the neighbour's own part's triangles
+        ok = (segment[faces[tri_id]] == segment[nb[pr]][:, None]).all(1)
+        pr, tri_id = pr[ok], tri_id[ok]
+        p = vertices[row[pr]]
+        abc = vertices[faces[tri_id]]
+        w = closest_point_on_triangles(p, abc[:, 0], abc[:, 1], abc[:, 2])
+        dist = np.linalg.norm(p - np.einsum("ij,ijk->ik", w, abc), axis=1)
+        close = dist <= reach
+        at.append(row[pr[close]])
+        other.append(segment[nb[pr[close]]])
+    at, other = np.concatenate(at), np.concatenate(other)
+    key = np.unique(at * (int(segment.max()) + 1) + other)
+    at, other = key // (int(segment.max()) + 1), key % (int(segment.max()) + 1)
+    return vertices[at], segment[at], other
+
+
+def _border_segment(points, distance, primary, junctions, margin):
+    """Per point, the other part at the nearest junction of its own part within sqrt(2) times
+    its body distance plus ``margin``, else -1. Near a border between parts, a garment's triangles and
+    the vertices of the layer below take different parts by a hair; their rays look in both."""
+    out = np.full(len(points), -1)
+    pos, own, other = junctions
+    for part in np.unique(primary):
+        mine = np.flatnonzero(primary == part)
+        at = own == part
+        if not at.any():
+            continue
+        # within 45 degrees of the junction as seen from the body: sqrt(2) times the distance
+        reach = np.sqrt(2.0) * distance[mine] + margin
+        d, j = cKDTree(pos[at]).query(points[mine], distance_upper_bound=float(reach.max()))
+        ok = d <= reach
+        out[mine[ok]] = other[at][j[ok]]
+    return out
 
 
 def _spread_from_hits(vertices, faces, adjacency, hit_points, amplitude, seed_vertices, falloff=None):
@@ -217,6 +283,9 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         global_normals: list of per-vertex (n,3) arrays (or None) overriding the body's normals.
         correspondence: list of BodyCorrespondence (or None) from an earlier call on the same
             garment topology (e.g. the rest pose), reused instead of searching again.
+        segment_margin: garment points within sqrt(2) times their body distance plus this
+            much of a place where their part meets another (a junction on the body) also trace
+            against that part; default 1% of the body's diagonal (about 2 cm on a person), 0 for strict parts.
         boundary_pass, push_behind, remove_hidden: bool stages, all on by default.
         falloff: Gaussian radius c of the boundary pass's spread, scene units; default
             4 mean edge lengths of the lower layer.
@@ -224,7 +293,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     t_start = time.perf_counter()
     timings = {}
     known = {"offset", "probe_distance", "garment_segments", "global_normals", "boundary_pass", "push_behind",
-             "remove_hidden", "falloff", "scheme", "segment_links", "correspondence"}
+             "remove_hidden", "falloff", "scheme", "segment_links", "correspondence", "segment_margin"}
     unknown = set(params) - known
     if unknown:
         raise ValueError(f"unknown parameter(s) {sorted(unknown)}; known: {sorted(known)}")
@@ -293,7 +362,12 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     # Without segments (one part) the probe distance follows the body locally: each garment
     # vertex takes the body's radius at its nearest point, so a sleeve probe stops inside the arm.
     local_probe = radius is not None and body_segments is None
-    corr, normals, vseg, probe_len = [], [], [], []
+    margin = float(params.get("segment_margin", 0.01 * diag))
+    if not np.isfinite(margin) or margin < 0:
+        raise ValueError(f"segment_margin must be a finite distance >= 0, got {margin}")
+    junctions = (_part_junctions(bv, bf, body_seg) if margin > 0 and len(np.unique(body_seg)) > 1
+                 else (np.zeros((0, 3)), np.zeros(0, np.int64), np.zeros(0, np.int64)))
+    corr, normals, vseg, vseg2, probe_len = [], [], [], [], []
     far = 0
     skirts = []
     for i, (v, f) in enumerate(garr):
@@ -319,15 +393,21 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         elif len(v):
             corner = bf[c.triangle, np.argmax(c.bary, axis=1)]
             s = body_seg[corner]
-            if scheme is not None and is_skirt(f, s, scheme):
+            if scheme is not None and is_skirt(f, s, scheme, vertices=v, body_vertices=bv, body_segments=body_seg):
                 s = skirt_segments(s, scheme)
                 skirts.append(i)
-                on_skirt = s == scheme.skirt
+                # the hull's normals for the whole skirt (torso points too: under the torso's
+                # bottom its normals point down, not out of the skirt)
+                on_skirt = np.isin(s, (scheme.skirt, scheme.torso))
                 if g_normals_in[i] is None and on_skirt.any():
                     n[on_skirt] = hull_normals(bv, body_seg, (scheme.torso, *scheme.skirt_spans), v[on_skirt])
         else:
             s = np.zeros(0, dtype=np.int64)
         vseg.append(s)
+        border = np.full(len(v), -1)
+        if len(junctions[0]) and g_segments_in[i] is None and len(v):
+            border = _border_segment(v, c.distance, s, junctions, margin)
+        vseg2.append(np.column_stack([s, border]))
         if local_probe and len(v):
             lv = np.einsum("ij,ij->i", c.bary, radius[bf[c.triangle]])
         else:
@@ -348,18 +428,27 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     rays = {"boundary": 0, "push": 0, "hidden": 0}
     moved_by = {"boundary": 0, "push": 0}
 
-    body_points = [c.points(bv, bf) for c in corr]
+    # A lower bound on each vertex's distance from the body: the distance found at rest minus
+    # every inward move since (distance is 1-Lipschitz). Unlike a ray along -n', it also sees
+    # body parts beside the ray (a joint bulging next to a limb). Inside the body: no bound.
+    inside = [np.einsum("ij,ij->i", v - c.points(bv, bf), body_normals_at) < 0
+              for v, c, body_normals_at in zip(verts, corr, normals, strict=True)]
+    clearance = [np.where(ins, np.inf, c.distance) for ins, c in zip(inside, corr, strict=True)]
     floor_clamped = 0
+    # An edge between two vertices held at the floor bows into a curved body by its sagitta
+    # e^2 / 8R; a tenth of the longest mean edge covers body radii down to 1.25 edges.
+    chord = 0.1 * max((float(np.linalg.norm(verts[i][e[:, 0]] - verts[i][e[:, 1]], axis=1).mean())
+                       for i, e in enumerate(edges) if len(e)), default=0.0)
 
-    def body_floor(k, v, idx, move):
-        """Cap inward moves so layer k keeps (k+1) d / (N+1) in front of the body: layers
-        squeezed against the body compress their gaps instead of entering it."""
+    def body_floor(k, idx, move):
+        """Cap inward moves so layer k keeps (k+1) d / (N+1) plus the chord allowance in front
+        of the body: layers squeezed against it compress their gaps instead of entering it."""
         nonlocal floor_clamped
-        floor = body_scene.intersect(v[idx], -normals[k][idx], max_dist=move)
-        outside = np.einsum("ij,ij->i", v[idx] - body_points[k][idx], normals[k][idx]) > 0
-        room = np.where(floor.hit & outside, floor.t - d * (k + 1) / (n_g + 1), np.inf)
+        room = clearance[k][idx] - d * (k + 1) / (n_g + 1) - chord
         floor_clamped += int((room < move).sum())
-        return np.clip(np.minimum(move, room), 0.0, None)
+        out = np.clip(np.minimum(move, room), 0.0, None)
+        clearance[k][idx] -= out
+        return out
 
     def refresh(i):
         scenes[i] = _SegmentScenes(verts[i], faces[i], fseg[i], links)
@@ -378,7 +467,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
                 continue
             n_o = np.concatenate([normals[j][hems[j]] for j in up])
             t, layer, face, r, _ = _trace_layers(o, n_o, np.concatenate([probe_len[j][hems[j]] for j in up]),
-                                                 np.concatenate([vseg[j][hems[j]] for j in up]), scenes, [k],
+                                                 np.concatenate([vseg2[j][hems[j]] for j in up]), scenes, [k],
                                                  cull=True)
             rays["boundary"] += r
             hit = layer == k
@@ -392,7 +481,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
             spread = _spread_from_hits(v, f, adjacency[k], np.concatenate(hit_points), np.concatenate(hit_amp),
                                        np.concatenate(seeds), params.get("falloff"))
             idx = np.flatnonzero(spread > 0)
-            spread[idx] = body_floor(k, v, idx, spread[idx])
+            spread[idx] = body_floor(k, idx, spread[idx])
             verts[k] = v - normals[k] * spread[:, None]
             moved_by["boundary"] += int((spread > 0).sum())
             refresh(k)
@@ -409,14 +498,14 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
             # Probes start d outside the vertex, so a vertex less than d behind a higher layer
             # is caught too: a hit at t means the layer is (t - d) behind, and moving by t
             # leaves exactly d. Behind the farthest higher layer within reach, not the nearest.
-            t, layer, _, r, secs = _trace_layers(v + normals[k] * d, -normals[k], probe_len[k] + d, vseg[k],
+            t, layer, _, r, secs = _trace_layers(v + normals[k] * d, -normals[k], probe_len[k] + d, vseg2[k],
                                                  scenes, range(k + 1, n_g), farthest=True)
             rays["push"] += r
             push_trace_s += secs
             hit = layer >= 0
             if hit.any():
                 idx = np.flatnonzero(hit)
-                t[idx] = body_floor(k, v, idx, t[idx])
+                t[idx] = body_floor(k, idx, t[idx])
                 verts[k] = v.copy()
                 verts[k][hit] -= normals[k][hit] * t[hit, None]
                 moved_by["push"] += int(hit.sum())
@@ -483,6 +572,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         "vertices_held_by_body": floor_clamped,
         "faces_removed": int(sum(r.sum() for r in removed)),
         "vertices_far_from_body": far,
+        "vertices_on_part_borders": int(sum((x[:, 1] >= 0).sum() for x in vseg2)),
         "scenes_built": sum(s.built for s in scenes),
     }
     return LayeringResult(out, moved, removed, normals, corr, vseg, stats)

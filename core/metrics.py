@@ -91,7 +91,7 @@ def _stack_layers(layers):
     return np.concatenate(verts), np.concatenate(faces), np.concatenate(layer_of_face)
 
 
-def _layer_bounds(layers):
+def layer_bounds(layers):
     pts = np.concatenate([np.asarray(v, dtype=np.float64).reshape(-1, 3) for v, _ in layers])
     lo, hi = pts.min(0), pts.max(0)
     return 0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))
@@ -106,7 +106,7 @@ def poke_through(layers, normals=None, depth=None, cameras=None):
     outward vertex normals per layer (default: each triangle's winding). ``depth``
     defaults to 2% of the scene's bounding radius. Returns (share, poked, covered).
     """
-    center, radius = _layer_bounds(layers)
+    center, radius = layer_bounds(layers)
     depth = 0.02 * radius if depth is None else float(depth)
     cameras = cameras if cameras is not None else camera_ring(center, radius)
     v_all, f_all, lay = _stack_layers(layers)
@@ -166,7 +166,7 @@ def new_holes(layers_before, layers_after, cameras=None):
     the corrected layers with and without face removal to isolate what removal opened.
     """
     if cameras is None:
-        cameras = camera_ring(*_layer_bounds(layers_before))
+        cameras = camera_ring(*layer_bounds(layers_before))
     before = first_layer(layers_before, cameras)
     after = first_layer(layers_after, cameras)
     dropped = sum(int(((a < b) & (b >= 0)).sum()) for b, a in zip(before, after, strict=True))

@@ -159,19 +159,56 @@ def boundary_loops(faces: np.ndarray, n_vertices: int) -> list:
     return [on[label[on] == lab] for lab in np.unique(label[on])]
 
 
-def is_skirt(faces, vertex_segment, scheme="S5", min_share=0.1) -> bool:
+def is_skirt(faces, vertex_segment, scheme="S5", min_share=0.1, vertices=None, body_vertices=None,
+             body_segments=None) -> bool:
     """A garment is a skirt (or dress) when one of its hems goes round both legs: most of
-    that hem's points lie on the legs, at least ``min_share`` on each. Trouser hems go round
-    one leg each; a waistband lies mostly on the torso."""
+    that hem's points lie on the legs, at least ``min_share`` on each, and (given the
+    garment's ``vertices`` and the body) the legs are apart at the hem's height, so the hem
+    is not just a shirt's hem sagging onto the tops of the thighs. Trouser hems go round one
+    leg each; a waistband lies mostly on the torso. Heights are along z."""
     scheme = get_scheme(scheme)
     seg = np.asarray(vertex_segment)
     left, right = list(scheme.leg_parts("left")), list(scheme.leg_parts("right"))
     for loop in boundary_loops(np.asarray(faces), len(seg)):
         s = seg[loop]
         on_left, on_right = np.isin(s, left).mean(), np.isin(s, right).mean()
-        if on_left >= min_share and on_right >= min_share and on_left + on_right >= 0.5:
+        if on_left < min_share or on_right < min_share or on_left + on_right < 0.5:
+            continue
+        if vertices is None or body_vertices is None:
+            return True
+        z = float(np.asarray(vertices)[loop, 2].mean())
+        if legs_apart(z, body_vertices, body_segments, scheme):
             return True
     return False
+
+
+def legs_apart(z, body_vertices, body_segments, scheme="S5", slab=0.015, cell=0.01) -> bool:
+    """Whether the body's left and right legs are separate shapes at height ``z``: their
+    points in a thin slab fall in different blobs of a 2-D occupancy grid. Works for figures
+    made of overlapping parts, where the surface's own connectivity says nothing. ``slab``
+    and ``cell`` (metres) grow to the body's vertex spacing there, so outlines stay closed."""
+    from scipy import ndimage
+
+    scheme = get_scheme(scheme)
+    bv = np.asarray(body_vertices, dtype=np.float64)
+    band = np.abs(bv[:, 2] - z) < max(slab, 0.1)
+    if band.sum() >= 2:
+        nn, _ = cKDTree(bv[band]).query(bv[band], k=2)
+        spacing = 2.0 * float(np.median(nn[:, 1]))
+        slab, cell = max(slab, spacing), max(cell, spacing)
+    near = np.abs(bv[:, 2] - z) < slab
+    pts, seg = bv[near, :2], np.asarray(body_segments)[near]
+    left, right = np.isin(seg, scheme.leg_parts("left")), np.isin(seg, scheme.leg_parts("right"))
+    if not left.any() or not right.any():
+        return False
+    ij = np.floor((pts - pts.min(0)) / cell).astype(np.int64) + 1
+    grid = np.zeros(ij.max(0) + 2, dtype=bool)
+    grid[ij[:, 0], ij[:, 1]] = True
+    # 8-connected: a leg's outline is a ring of cells its vertices fall in, about one cell apart;
+    # filled, so parts modelled inside others (thigh tops inside the pelvis) join them
+    labels, _ = ndimage.label(ndimage.binary_fill_holes(grid), structure=np.ones((3, 3), dtype=bool))
+    blob = labels[ij[:, 0], ij[:, 1]]
+    return not set(blob[left]) & set(blob[right])
 
 
 def skirt_segments(vertex_segment, scheme="S5") -> np.ndarray:
@@ -214,4 +251,4 @@ def hull_normals(body_vertices, body_segments, parts, points) -> np.ndarray:
 
 
 __all__ = ["S5", "S13", "SCHEMES", "Scheme", "boundary_loops", "get_scheme", "hull_normals", "is_skirt",
-           "part_of_group", "segments_from_groups", "skirt_segments", "smpl_naming"]
+           "legs_apart", "part_of_group", "segments_from_groups", "skirt_segments", "smpl_naming"]

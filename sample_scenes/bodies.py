@@ -5,6 +5,8 @@ import bpy
 import numpy as np
 
 from ..addon import mesh_io
+from ..addon.scene_roles import PART_ATTRIBUTE
+from ..core.segmentation import segments_from_groups
 from .figures import Figure, bone_weights
 
 
@@ -35,6 +37,10 @@ def figure_object(fig: Figure, collection):
     body = mesh_io.new_mesh_object(fig.name, fig.vertices, fig.faces, collection)
     body.deformrt.role, body.deformrt.layer = "BODY", 0
     mesh_io.write_vertex_groups(body, fig.joint_names, fig.weights)
+    # body parts of both schemes, read back by the operators and the CLI without group lookups
+    for scheme in ("S5", "S13"):
+        parts = segments_from_groups(fig.weights, fig.joint_names, scheme, vertices=fig.vertices)
+        mesh_io.write_point_ints(body, PART_ATTRIBUTE[scheme], parts)
     rig = _armature(fig, collection, fig.name)
     body.parent = rig
     mod = body.modifiers.new("Armature", "ARMATURE")

@@ -140,8 +140,8 @@ def test_cli_info_inside_blender(extension, capsys):
 
 def test_cli_from_plain_python_runs_the_installed_extension(extension, tmp_path):
     ext_dir = extension.__file__.rsplit("/", 1)[0]
-    run = subprocess.run([sys.executable, ext_dir, "demo", "--out", str(tmp_path), "--size", "64", "--samples", "2"],
-                         capture_output=True, text=True, timeout=300)
+    run = subprocess.run([sys.executable, ext_dir, "demo", "--scene", "tubes", "--out", str(tmp_path), "--width", "64",
+                          "--height", "64", "--samples", "2"], capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr[-2000:]
     assert (tmp_path / "before.png").stat().st_size > 1000
     table = (tmp_path / "metrics.md").read_text()

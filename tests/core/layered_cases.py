@@ -56,12 +56,12 @@ def capped_cylinder(radius, height, center=(0.0, 0.0), n=48):
 
 
 def lower_body(n=48):
-    """Torso (z 0.5-1.0, r 15 cm) on two legs (r 7 cm at x = -/+8 cm, z 0-0.5), as S5 parts.
+    """Torso (z 0.5-1.0, r 15 cm) on two legs (r 7 cm at x = -/+9 cm, z 0-0.5), as S5 parts.
 
     Returns the body mesh and its S5 segment ids (torso 0, right leg 3 at x < 0, left leg 4).
     """
-    parts = [capped_cylinder(0.15, 0.5, n=n), capped_cylinder(0.07, 0.5, (-0.08, 0.0), n=n),
-             capped_cylinder(0.07, 0.5, (0.08, 0.0), n=n)]
+    parts = [capped_cylinder(0.15, 0.5, n=n), capped_cylinder(0.07, 0.5, (-0.09, 0.0), n=n),
+             capped_cylinder(0.07, 0.5, (0.09, 0.0), n=n)]
     parts[0].apply_translation([0, 0, 0.75])
     parts[1].apply_translation([0, 0, 0.25])
     parts[2].apply_translation([0, 0, 0.25])

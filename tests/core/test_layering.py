@@ -61,6 +61,8 @@ def test_sleeve_next_to_a_torso_is_not_pushed_into_it():
     for segs in (None, body_seg):
         res = resolve_layers(body, [sleeve, jacket], body_segments=segs)
         assert not res.moved[0].any(), "the sleeve moved though nothing covers it"
+        # the arm does not touch the torso: no part border to look across
+        assert res.stats["vertices_on_part_borders"] == 0
     # a single probe distance as long as the torso radius would reach through the arm
     res = resolve_layers(body, [sleeve, jacket], probe_distance=0.15)
     assert res.moved[0].any()
@@ -259,3 +261,22 @@ def test_culled_hem_scenes_give_the_same_hits_as_the_whole_layer():
     _, ids = _SegmentScenes(np.asarray(lower.vertices), f, np.zeros(len(f), int), np.eye(1, dtype=bool)).get_near(
         0, o, 0.03)
     assert len(ids) < 0.5 * len(f)
+
+
+def test_a_joint_bulging_beside_the_probe_ray_still_holds_the_lower_layer_out():
+    """A ball joint sits on the limb; a sleeve squeezed over it is pushed along the limb's
+    normals, which pass beside the ball. The body floor must see the ball anyway."""
+    from sample_scenes.shapes import tube
+
+    arm = capped_cylinder(0.04, 0.6, n=48)
+    ball = trimesh.creation.icosphere(subdivisions=4, radius=0.05)
+    ball.apply_translation([0.0, 0.0, 0.0])
+    body = trimesh.util.concatenate([arm, ball])
+    # the sleeve hugs the ball (6 mm out); the outer sleeve sits inside it, 2 mm off the arm
+    sv, sf = tube(0.056, -0.1, 0.1, n_around=48, n_along=24)
+    ov, of = tube(0.042, -0.2, 0.2, n_around=48, n_along=40)
+    sleeve, outer = mesh(sv, sf), mesh(ov, of)
+    res = resolve_layers(body, [sleeve, outer], offset=0.001)
+    s = res.garments[0]
+    assert brute_crossings(s.vertices, s.faces, body.vertices, body.faces) == 0
+    assert res.stats["vertices_held_by_body"] > 0

@@ -10,6 +10,7 @@ from core.segmentation import (
     boundary_loops,
     hull_normals,
     is_skirt,
+    legs_apart,
     part_of_group,
     segments_from_groups,
     skirt_segments,
@@ -97,7 +98,7 @@ def test_a_skirt_hem_goes_round_both_legs_and_trouser_hems_do_not():
     body, ids = lower_body()
     skirt = _skirt()
     assert is_skirt(skirt.faces, _segments_by_nearest(body, ids, skirt), "S5")
-    for x in (-0.08, 0.08):  # one trouser leg each
+    for x in (-0.09, 0.09):  # one trouser leg each
         leg = mesh(*tube(0.085, 0.05, 0.49, n_around=32, n_along=12))
         leg.apply_translation([x, 0, 0])
         assert not is_skirt(leg.faces, _segments_by_nearest(body, ids, leg), "S5")
@@ -128,6 +129,17 @@ def test_skirt_normals_come_from_the_hull_of_both_legs():
     np.testing.assert_allclose(n[2], [1, 0, 0], atol=np.sin(np.pi / 48) + 1e-3)  # a facet of the 48-gon leg
     with pytest.raises(ValueError, match="no 3-D extent"):
         hull_normals(np.zeros((4, 3)), np.zeros(4, int), (0,), pts)
+
+
+def test_legs_are_apart_below_the_crotch_and_not_above_it():
+    body, ids = lower_body()
+    assert legs_apart(0.3, body.vertices, ids, "S5")
+    # a body whose thighs merge into the hips (overlapping blobs) at the hem's height
+    fat = body.vertices.copy()
+    legs = ids > 0
+    fat[legs, 0] -= np.sign(fat[legs, 0]) * 0.03  # leg axes 6 cm out, radius 7 cm: they overlap
+    assert not legs_apart(0.3, fat, ids, "S5")
+    assert not legs_apart(0.8, body.vertices, ids, "S5")  # no legs at that height
 
 
 def test_jacket_over_a_skirt_pushes_the_skirt_behind_it():
@@ -178,10 +190,11 @@ def test_skirt_points_on_the_legs_meet_a_higher_layer_of_the_torso():
     covered = (skirt.vertices[:, 2] > 0.31) & (skirt.vertices[:, 2] < 0.6)
     inner = 0.17 * np.cos(np.pi / 64)
     segs = [None, np.zeros(len(jacket.vertices), int)]
-    plain = resolve_layers(body, [skirt, jacket], body_segments=ids, garment_segments=segs, remove_hidden=False)
+    plain = resolve_layers(body, [skirt, jacket], body_segments=ids, garment_segments=segs, remove_hidden=False,
+                           segment_margin=0.0)
     on_legs = covered & np.isin(plain.segments[0], (3, 4))
     assert on_legs.sum() > 100
     assert (np.linalg.norm(plain.garments[0].vertices[on_legs, :2], axis=1) > inner).all()
     res = resolve_layers(body, [skirt, jacket], body_segments=ids, garment_segments=segs, scheme="S5",
-                         remove_hidden=False)
+                         remove_hidden=False, segment_margin=0.0)
     assert (np.linalg.norm(res.garments[0].vertices[covered, :2], axis=1) < inner).all()
