@@ -132,7 +132,8 @@ def _face_segment(faces, vertex_segment):
     return np.where(s[:, 1] == s[:, 2], s[:, 1], s[:, 0])
 
 
-def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, farthest=False, cull=False):
+def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, farthest=False, cull=False,
+                  facing=None):
     """Each ray's first hit on each given layer (triangles of the ray's own segments only:
     ``segment`` is (n,) or (n, 2) with -1 for no second one), combined over segments and
     layers as the nearest or, with ``farthest``, the farthest of those hits.
@@ -140,7 +141,10 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
     Returns (t, layer index, face index within that layer, rays traced, seconds tracing);
     layer -1 where nothing was hit. Layers whose segment bounds are out of the rays'
     reach are skipped; with ``cull`` only triangles within that reach of the origins go
-    into the scene (for rays bunched along a few lines, such as hems).
+    into the scene (for rays bunched along a few lines, such as hems). With ``facing`` =
+    (global normals per layer, per-ray normals), a hit counts only where the layer's
+    interpolated global normal points the ray's way: the far side of a skirt, met through
+    the gap between the legs, is not in front of the near side.
     """
     n = len(origins)
     best_t = np.full(n, -np.inf if farthest else np.inf)
@@ -167,6 +171,12 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
             trace_s += time.perf_counter() - t0
             rays += len(idx)
             closer = hits.hit & ((hits.t > best_t[idx]) if farthest else (hits.t < best_t[idx]))
+            if facing is not None and closer.any():
+                tri = ids[hits.face[closer]]
+                u, w = hits.bary[closer, 0], hits.bary[closer, 1]
+                nk = facing[0][k][scenes.faces[tri]]
+                n_hit = (1 - u - w)[:, None] * nk[:, 0] + u[:, None] * nk[:, 1] + w[:, None] * nk[:, 2]
+                closer[closer] = np.einsum("ij,ij->i", n_hit, facing[1][idx[closer]]) > 0
             sel = idx[closer]
             best_t[sel] = hits.t[closer]
             best_layer[sel] = k
@@ -468,7 +478,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
             n_o = np.concatenate([normals[j][hems[j]] for j in up])
             t, layer, face, r, _ = _trace_layers(o, n_o, np.concatenate([probe_len[j][hems[j]] for j in up]),
                                                  np.concatenate([vseg2[j][hems[j]] for j in up]), scenes, [k],
-                                                 cull=True)
+                                                 cull=True, facing=(normals, n_o))
             rays["boundary"] += r
             hit = layer == k
             if not hit.any():
@@ -499,7 +509,8 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
             # is caught too: a hit at t means the layer is (t - d) behind, and moving by t
             # leaves exactly d. Behind the farthest higher layer within reach, not the nearest.
             t, layer, _, r, secs = _trace_layers(v + normals[k] * d, -normals[k], probe_len[k] + d, vseg2[k],
-                                                 scenes, range(k + 1, n_g), farthest=True)
+                                                 scenes, range(k + 1, n_g), farthest=True,
+                                                 facing=(normals, normals[k]))
             rays["push"] += r
             push_trace_s += secs
             hit = layer >= 0

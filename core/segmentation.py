@@ -16,6 +16,8 @@ import numpy as np
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import ConvexHull, QhullError, cKDTree
 
+from .correspondence import closest_point_on_triangles
+from .parallel import map_chunks
 from .topology import edges_with_counts
 
 
@@ -219,6 +221,59 @@ def skirt_segments(vertex_segment, scheme="S5") -> np.ndarray:
     return seg
 
 
+def _nearest_on_convex(points, hv, hf, chunk=1024):
+    """Per point, the unit normal of the hull facet holding its nearest hull point and the
+    vector from that point to it (outward hull, wound outward).
+
+    Exact: an outside point's nearest point lies on a facet whose plane it is above (the
+    normal cone at the nearest point holds p - q), so only those facets are tried; an
+    inside point's nearest facet is the one whose plane is closest.
+    """
+    tri = hv[hf]
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+    offset = np.einsum("ij,ij->i", normal, tri[:, 0])
+    # the nearest hull vertex bounds the distance from above, a facet's plane from below
+    bound, _ = cKDTree(hv).query(points)
+    best = np.zeros(len(points), dtype=np.int64)
+    away = np.zeros_like(points)
+    normal32, offset32 = normal.astype(np.float32), offset.astype(np.float32)
+    # a facet is no nearer than its plane, nor than its bounding sphere
+    centre = tri.mean(1)
+    reach = np.linalg.norm(tri - centre[:, None], axis=2).max(1)
+    centre32, centre_sq = centre.astype(np.float32), np.einsum("ij,ij->i", centre, centre).astype(np.float32)
+    slack = 1e-5 * float(np.ptp(hv, axis=0).max())
+    ub_all = (bound + slack).astype(np.float32)
+    reach32 = reach.astype(np.float32)
+
+    def run(sl):
+        p = points[sl]
+        p32 = p.astype(np.float32)
+        # (c, facets) signed distance to each facet's plane; float32 only picks candidates
+        height = p32 @ normal32.T - offset32
+        ub = ub_all[sl, None]
+        near = p32 @ centre32.T
+        near *= -2
+        near += np.einsum("ij,ij->i", p32, p32)[:, None] + centre_sq
+        near -= np.square(ub + reach32)
+        row, col = np.nonzero((height > 0) & (height <= ub) & (near <= 0))
+        w = closest_point_on_triangles(p[row], tri[col, 0], tri[col, 1], tri[col, 2])
+        q = np.einsum("ij,ijk->ik", w, tri[col])
+        dist = np.linalg.norm(p[row] - q, axis=1)
+        # the pair with the smallest distance per point: sort by (point, distance)
+        order = np.lexsort((dist, row))
+        first = order[np.r_[True, row[order][1:] != row[order][:-1]]] if len(order) else order
+        pick = np.argmax(height, axis=1)  # inside: the closest plane
+        vec = -(np.einsum("ij,ij->i", p, normal[pick]) - offset[pick])[:, None] * normal[pick]
+        pick[row[first]] = col[first]
+        vec[row[first]] = p[row[first]] - q[first]
+        best[sl] = pick
+        away[sl] = vec
+
+    map_chunks(run, len(points), chunk)
+    return normal[best], away
+
+
 def hull_normals(body_vertices, body_segments, parts, points) -> np.ndarray:
     """Outward normals for skirt points: from the convex hull of the body parts it spans.
 
@@ -226,11 +281,21 @@ def hull_normals(body_vertices, body_segments, parts, points) -> np.ndarray:
     gap, so its normals point out of the skirt as a whole (the seed's "manual intervention"
     for skirts, done automatically).
     """
-    from .correspondence import nearest_on_surface
-
     v = np.asarray(body_vertices, dtype=np.float64)[np.isin(body_segments, parts)]
     try:
         hull = ConvexHull(v)
+        # A smooth body's hull has a facet per few vertices on every curve; the normals need
+        # its shape, not its detail: one hull vertex per cell of 2% of the size, the
+        # outermost, keeps the hull within that of the true one with a fraction of the facets.
+        hv = v[hull.vertices]
+        cell = 0.02 * float(np.linalg.norm(np.ptp(hv, axis=0)))
+        if cell > 0 and len(hv) > 64:
+            key = np.unique(np.floor((hv - hv.min(0)) / cell).astype(np.int64), axis=0, return_inverse=True)[1]
+            order = np.lexsort((-np.linalg.norm(hv - hv.mean(0), axis=1), key.ravel()))
+            keep = order[np.r_[True, key.ravel()[order][1:] != key.ravel()[order][:-1]]]
+            if len(keep) >= 4:
+                v = hv[keep]
+                hull = ConvexHull(v)
     except (QhullError, ValueError) as err:
         raise ValueError(f"the body parts {list(parts)} have no 3-D extent for a skirt hull: {err}") from None
     used = np.unique(hull.simplices)
@@ -242,11 +307,19 @@ def hull_normals(body_vertices, body_segments, parts, points) -> np.ndarray:
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     flip = np.einsum("ij,ij->i", n, tri.mean(1) - hv.mean(0)) < 0
     hf[flip] = hf[flip][:, ::-1]
-    # the facet's own normal: a hull's few large facets would blend a bottom cap's -z into
-    # every vertex normal of the flat bridge between the legs
-    corr = nearest_on_surface(points, hv, hf)
-    tri = hv[hf[corr.triangle]]
-    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    # Outside the hull the direction from its nearest point is the outward normal, and it
+    # turns smoothly round the hull's edges; a facet's own normal would jump between facets
+    # (a flared hem beside the legs' hull edge would point backwards). On or inside the hull
+    # the facet normal: the hull's few large facets would blend a bottom cap's -z into every
+    # vertex normal of the flat bridge between the legs.
+    pts = np.asarray(points, dtype=np.float64)
+    facet, away = _nearest_on_convex(pts, hv, hf)
+    size = float(np.linalg.norm(np.ptp(hv, axis=0)))
+    outside = np.einsum("ij,ij->i", away, facet) > 1e-6 * size
+    n = facet.copy()
+    # a short bridge of the facet normal keeps points just off the hull from taking a
+    # direction out of round-off
+    n[outside] = away[outside] + facet[outside] * (1e-3 * size)
     return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
 
 

@@ -159,6 +159,47 @@ def test_jacket_over_a_skirt_pushes_the_skirt_behind_it():
     assert not res.moved[1].any()
 
 
+def test_a_long_probe_does_not_pull_a_skirt_towards_its_far_side():
+    # Probes longer than the skirt is wide cross the gap between the legs and meet the far
+    # side of the skirt above, which faces the other way: not a layer in front.
+    body, ids = lower_body()
+    rng = np.random.default_rng(3)
+    skirts = [mesh(*tube(r, 0.2, 0.62 - 0.003 * k, n_around=64, n_along=24, noise=0.008, rng=rng))
+              for k, r in enumerate((0.18, 0.184))]
+    res = resolve_layers(body, skirts, body_segments=ids, scheme="S5", probe_distance=0.6)
+    assert res.stats["skirts"] == [0, 1]
+    a, b = res.garments
+    assert brute_crossings(a.vertices, a.faces, b.vertices, b.faces) == 0
+    # the inner skirt only moves where the outer one dips into it: by the bumps, not across the gap
+    r_in = np.linalg.norm(skirts[0].vertices[:, :2], axis=1)
+    r_out_min = np.linalg.norm(skirts[1].vertices[:, :2], axis=1).min()
+    assert np.linalg.norm(res.moved[0], axis=1).max() < r_in.max() - r_out_min + 0.01
+
+
+def test_hull_normals_point_away_from_the_nearest_hull_point():
+    # A box's hull: the nearest point of an outside point is the point clamped to the box,
+    # so round its edges and corners the normal turns with the point, not facet by facet.
+    rng = np.random.default_rng(0)
+    lo, hi = np.array([-0.2, -0.1, 0.0]), np.array([0.2, 0.1, 1.0])
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    body = np.vstack([corners, lo + rng.random((200, 3)) * (hi - lo)])
+    pts = lo - 0.3 + rng.random((500, 3)) * (hi - lo + 0.6)
+    n = hull_normals(body, np.zeros(len(body), int), (0,), pts)
+    near = np.clip(pts, lo, hi)
+    out = np.linalg.norm(pts - near, axis=1) > 0.01
+    expect = (pts - near)[out] / np.linalg.norm(pts - near, axis=1, keepdims=True)[out]
+    # the normal differs by the small facet bridge only (1e-3 of the hull's size over >= 1 cm)
+    np.testing.assert_allclose(n[out], expect, atol=0.12)
+    assert np.einsum("ij,ij->i", n[out], expect).min() > 0.995
+    # inside, the normal of the nearest face
+    inner = ((pts > lo) & (pts < hi)).all(1)
+    gap = np.column_stack([pts - lo, hi - pts])[inner]
+    face = np.argmin(gap, axis=1)
+    expect_in = np.zeros((inner.sum(), 3))
+    expect_in[np.arange(len(face)), face % 3] = np.where(face < 3, -1.0, 1.0)
+    np.testing.assert_allclose(n[inner], expect_in, atol=1e-9)
+
+
 def test_scheme_needs_body_segments_in_range():
     body, ids = lower_body(n=16)
     skirt = _skirt(n=16)
