@@ -2,10 +2,10 @@
 
 import bpy
 
-from ..operators import tagging
+from ..operators import layering, tagging
 from . import cli, panels, preferences, properties
 
-_classes = (*properties.CLASSES, *preferences.CLASSES, *tagging.CLASSES, *panels.CLASSES)
+_classes = (*properties.CLASSES, *preferences.CLASSES, *tagging.CLASSES, *layering.CLASSES, *panels.CLASSES)
 _register_classes, _unregister_classes = bpy.utils.register_classes_factory(_classes)
 
 

@@ -11,6 +11,8 @@ class MeshArrays:
     vertices: np.ndarray  # (n, 3) float64, world space unless read with world=False
     triangles: np.ndarray  # (m, 3) int64, loop triangles of the evaluated mesh
     triangle_polygon: np.ndarray  # (m,) polygon each triangle came from
+    n_polygons: int = 0
+    matrix_world: np.ndarray | None = None  # (4, 4) of the evaluated object
 
 
 def _matrix(obj) -> np.ndarray:
@@ -33,13 +35,14 @@ def read_mesh(obj, depsgraph=None, world=True) -> MeshArrays:
         mesh.loop_triangles.foreach_get("vertices", tris)
         poly = np.empty(m, dtype=np.int32)
         mesh.loop_triangles.foreach_get("polygon_index", poly)
+        n_polygons = len(mesh.polygons)
     finally:
         evaluated.to_mesh_clear()
     v = co.reshape(-1, 3).astype(np.float64)
+    mw = np.array(evaluated.matrix_world, dtype=np.float64)
     if world:
-        mw = np.array(evaluated.matrix_world, dtype=np.float64)
         v = v @ mw[:3, :3].T + mw[:3, 3]
-    return MeshArrays(v, tris.reshape(-1, 3).astype(np.int64), poly.astype(np.int64))
+    return MeshArrays(v, tris.reshape(-1, 3).astype(np.int64), poly.astype(np.int64), n_polygons, mw)
 
 
 def fill_mesh(mesh, vertices, faces) -> None:
@@ -88,6 +91,54 @@ def write_vertex_groups(obj, names, weights, levels: int = 1024) -> None:
         for value, idx in zip(values, np.split(order, starts[1:]), strict=True):
             if value:
                 group.add(idx.tolist(), float(value) / levels, "REPLACE")
+
+
+def read_vertex_groups(obj, names):
+    """(n_vertices, len(names)) weights of the named vertex groups on the evaluated mesh
+    (after the modifier stack, as the geometry read by ``read_mesh``); 0 where a vertex is
+    not in a group or the group does not exist.
+
+    Blender has no bulk getter for group weights; a temporary Geometry Nodes modifier at the
+    end of the stack copies each group into a float attribute, which ``foreach_get`` reads.
+    """
+    names = list(names)
+    group = bpy.data.node_groups.new("DeformRT read groups", "GeometryNodeTree")
+    mod = None
+    try:
+        group.interface.new_socket(name="Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+        group.interface.new_socket(name="Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+        nodes, links = group.nodes, group.links
+        socket = nodes.new("NodeGroupInput").outputs["Geometry"]
+        for i, name in enumerate(names):
+            named = nodes.new("GeometryNodeInputNamedAttribute")
+            named.data_type = "FLOAT"
+            named.inputs["Name"].default_value = name
+            store = nodes.new("GeometryNodeStoreNamedAttribute")
+            store.data_type, store.domain = "FLOAT", "POINT"
+            store.inputs["Name"].default_value = f"deformrt_read_{i}"
+            links.new(socket, store.inputs["Geometry"])
+            links.new(named.outputs["Attribute"], store.inputs["Value"])
+            socket = store.outputs["Geometry"]
+        links.new(socket, nodes.new("NodeGroupOutput").inputs["Geometry"])
+        mod = obj.modifiers.new("DeformRT read groups", "NODES")
+        mod.node_group = group
+        evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+        mesh = evaluated.to_mesh()
+        try:
+            out = np.zeros((len(mesh.vertices), len(names)), dtype=np.float32)
+            for i in range(len(names)):
+                attr = mesh.attributes.get(f"deformrt_read_{i}")
+                if attr is not None:
+                    col = np.empty(len(mesh.vertices), dtype=np.float32)
+                    attr.data.foreach_get("value", col)
+                    out[:, i] = col
+        finally:
+            evaluated.to_mesh_clear()
+    finally:
+        if mod is not None:
+            obj.modifiers.remove(mod)
+        bpy.data.node_groups.remove(group)
+    return out.astype(np.float64)
 
 
 def write_point_ints(obj, name: str, values) -> None:

@@ -1,5 +1,7 @@
 """The DeformRT sidebar tab in the 3D View."""
 
+import json
+
 import bpy
 
 from . import scene_roles
@@ -46,4 +48,52 @@ class DEFORMRT_PT_layers(bpy.types.Panel):
             layout.label(text="Two garments share a layer", icon="ERROR")
 
 
-CLASSES = (DEFORMRT_PT_layers,)
+class DEFORMRT_PT_resolve(bpy.types.Panel):
+    bl_idname = "DEFORMRT_PT_resolve"
+    bl_label = "Resolve"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "DeformRT"
+
+    def draw(self, context):
+        layout = self.layout
+        settings = context.scene.deformrt
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        row = layout.row(align=True)
+        row.prop(settings, "scheme")
+        row.operator("deformrt.auto_segment", text="", icon="GROUP_VERTEX")
+        layout.prop(settings, "offset")
+        layout.prop(settings, "probe_distance")
+        layout.prop(settings, "boundary_pass")
+        layout.prop(settings, "remove_hidden")
+        col = layout.column(align=True)
+        col.scale_y = 1.3
+        col.operator("deformrt.resolve_layers", icon="MOD_CLOTH")
+        row = layout.row(align=True)
+        row.operator("deformrt.clear_results", icon="X")
+        row.operator("deformrt.bake_results", icon="EXPORT")
+        layout.prop(settings, "resolve_on_frame_change")
+        report = _last_report(settings)
+        if report:
+            box = layout.box()
+            for line in report:
+                box.label(text=line)
+
+
+def _last_report(settings):
+    if not settings.last_report:
+        return []
+    try:
+        data = json.loads(settings.last_report)
+    except ValueError:
+        return []
+    lines = [data.get("message", "")]
+    if data.get("skirts"):
+        lines.append("Skirts: " + ", ".join(data["skirts"]))
+    if data.get("far_from_body"):
+        lines.append(f"{data['far_from_body']} garment points lie farther from the body than the probe reaches")
+    return lines
+
+
+CLASSES = (DEFORMRT_PT_layers, DEFORMRT_PT_resolve)

@@ -1,7 +1,7 @@
 """Per-object and per-scene DeformRT settings (the names other tools rely on: see NOTES.md)."""
 
 import bpy
-from bpy.props import BoolProperty, EnumProperty, IntProperty, PointerProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty, StringProperty
 
 ROLE_ITEMS = (
     ("NONE", "None", "Not part of garment layering"),
@@ -21,11 +21,58 @@ class DeformRTObjectProperties(bpy.types.PropertyGroup):
     )
 
 
+SCHEME_ITEMS = (
+    ("S5", "5 Parts", "Torso, arms, legs, plus a skirt segment (the seed's static scheme)"),
+    ("S13", "13 Parts", "Upper and lower limbs, hands and feet apart (the seed's scheme for posed figures)"),
+    ("NONE", "Whole Body", "No body parts: every garment point meets every higher layer near it"),
+)
+
+
 class DeformRTSceneProperties(bpy.types.PropertyGroup):
     resolve_on_frame_change: BoolProperty(
         name="Resolve on Frame Change",
         description="Re-run the layer correction whenever the frame changes (playback, rendering an animation)",
         default=False,
+    )
+    scheme: EnumProperty(
+        name="Body Parts",
+        description="How the body is split so probe rays only meet garments over the same part",
+        items=SCHEME_ITEMS,
+        default="S5",
+    )
+    offset: FloatProperty(
+        name="Offset",
+        description="Gap left behind a higher layer (d); 0 picks 0.1% of the body's size, about 2 mm on a person",
+        default=0.0,
+        min=0.0,
+        soft_max=0.05,
+        subtype="DISTANCE",
+        unit="LENGTH",
+        precision=4,
+    )
+    probe_distance: FloatProperty(
+        name="Probe Distance",
+        description="How far probe rays look for a higher layer (l_s); 0 takes each body part's radius",
+        default=0.0,
+        min=0.0,
+        soft_max=1.0,
+        subtype="DISTANCE",
+        unit="LENGTH",
+    )
+    boundary_pass: BoolProperty(
+        name="Tuck Under Hems",
+        description="Smoothly pull lower layers in under higher layers' hems and cuffs (seed Fig. 4.10)",
+        default=True,
+    )
+    remove_hidden: BoolProperty(
+        name="Hide Poke-Through",
+        description="Leave out triangles that still cross a higher layer after the move (seed Fig. 4.14)",
+        default=True,
+    )
+    last_report: StringProperty(
+        name="Last Report",
+        description="What the last resolve or inspect measured (shown in the panel)",
+        default="",
     )
 
 

@@ -396,23 +396,27 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         else:
             n = c.normals(body_normals, bf) if len(v) else np.zeros((0, 3))
         normals.append(n)
+        skirt = False
         if g_segments_in[i] is not None:
             s = np.asarray(g_segments_in[i], dtype=np.int64)
             if s.shape != (len(v),) or (len(s) and (s.min() < 0 or s.max() >= n_seg)):
                 raise ValueError(f"garment_segments[{i}] must be {len(v)} ids in 0..{n_seg - 1}")
+            skirt = scheme is not None and bool((s == scheme.skirt).any())
         elif len(v):
             corner = bf[c.triangle, np.argmax(c.bary, axis=1)]
             s = body_seg[corner]
             if scheme is not None and is_skirt(f, s, scheme, vertices=v, body_vertices=bv, body_segments=body_seg):
                 s = skirt_segments(s, scheme)
-                skirts.append(i)
-                # the hull's normals for the whole skirt (torso points too: under the torso's
-                # bottom its normals point down, not out of the skirt)
-                on_skirt = np.isin(s, (scheme.skirt, scheme.torso))
-                if g_normals_in[i] is None and on_skirt.any():
-                    n[on_skirt] = hull_normals(bv, body_seg, (scheme.torso, *scheme.skirt_spans), v[on_skirt])
+                skirt = True
         else:
             s = np.zeros(0, dtype=np.int64)
+        if skirt:
+            skirts.append(i)
+            # the hull's normals for the whole skirt (torso points too: under the torso's
+            # bottom its normals point down, not out of the skirt)
+            on_skirt = np.isin(s, (scheme.skirt, scheme.torso))
+            if g_normals_in[i] is None and on_skirt.any():
+                n[on_skirt] = hull_normals(bv, body_seg, (scheme.torso, *scheme.skirt_spans), v[on_skirt])
         vseg.append(s)
         border = np.full(len(v), -1)
         if len(junctions[0]) and g_segments_in[i] is None and len(v):

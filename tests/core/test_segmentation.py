@@ -239,3 +239,15 @@ def test_skirt_points_on_the_legs_meet_a_higher_layer_of_the_torso():
     res = resolve_layers(body, [skirt, jacket], body_segments=ids, garment_segments=segs, scheme="S5",
                          remove_hidden=False, segment_margin=0.0)
     assert (np.linalg.norm(res.garments[0].vertices[covered, :2], axis=1) < inner).all()
+
+
+def test_given_skirt_segments_get_the_skirt_treatment():
+    # segments passed back in (painted DRT_ groups) give what the skirt detection gave
+    body, ids = lower_body(n=24)
+    skirt, jacket = _skirt(n=32), mesh(*tube(0.17, 0.45, 0.95, n_around=32, n_along=12))
+    found = resolve_layers(body, [skirt, jacket], body_segments=ids, scheme="S5", segment_margin=0.0)
+    again = resolve_layers(body, [skirt, jacket], body_segments=ids, scheme="S5", segment_margin=0.0,
+                           garment_segments=found.segments)
+    assert again.stats["skirts"] == found.stats["skirts"] == [0]
+    np.testing.assert_allclose(again.global_normals[0], found.global_normals[0])
+    np.testing.assert_allclose(again.moved[0], found.moved[0])

@@ -1,0 +1,224 @@
+"""Resolve the role-tagged objects of a scene: read once, call core, write once.
+
+Used by the operators, the frame-change handler and the command line, so all of them
+check the scene the same way and leave the same non-destructive result.
+"""
+
+import time
+from dataclasses import dataclass, field
+
+import bpy
+import numpy as np
+import trimesh
+
+from ..core.layering import resolve_layers
+from ..core.segmentation import get_scheme, part_of_group, segments_from_groups
+from . import mesh_io, results, scene_roles
+
+PART_GROUP_PREFIX = "DRT_"
+
+
+class LayeringInputError(ValueError):
+    """The scene cannot be resolved as it is; the message says what to change."""
+
+
+@dataclass
+class ResolveSummary:
+    body: str
+    garments: list
+    parts_source: str
+    stats: dict
+    max_move: list  # per garment, scene units
+    faces_hidden: list  # per garment, polygons
+    seconds: dict = field(default_factory=dict)
+
+    def message(self) -> str:
+        moved = max(self.max_move, default=0.0)
+        return (f"Resolved {len(self.garments)} garments on {self.body} in {self.seconds['total_s']:.2f} s: "
+                f"max move {moved * 1000:.1f} mm, {sum(self.faces_hidden)} faces hidden "
+                f"(parts: {self.parts_source})")
+
+
+def layered_objects(scene):
+    """(body, garments inner to outer) after checking the scene can be resolved."""
+    odd = [o for o in scene_roles.tagged(scene, "BODY") + scene_roles.tagged(scene, "GARMENT") if o.type != "MESH"]
+    if odd:
+        raise LayeringInputError(f"{odd[0].name} is a {odd[0].type.lower()}, not a mesh: clear its role")
+    bodies = scene_roles.bodies(scene)
+    if not bodies:
+        raise LayeringInputError("No body: select the figure and press Tag as Body")
+    if len(bodies) > 1:
+        raise LayeringInputError(f"More than one body ({', '.join(o.name for o in bodies)}): keep one")
+    garments = scene_roles.garments(scene)
+    if not garments:
+        raise LayeringInputError("No garments: select them and press Tag as Garments")
+    view_layer = bpy.context.view_layer
+    for obj in [bodies[0], *garments]:
+        hidden = obj.hide_viewport or (view_layer is not None and obj.name in view_layer.objects
+                                       and obj.hide_get(view_layer=view_layer))
+        if hidden or (view_layer is not None and obj.name not in view_layer.objects):
+            raise LayeringInputError(f"{obj.name} is hidden or not in the view layer: show it or clear its role")
+    layers = [o.deformrt.layer for o in garments]
+    for a, b in zip(garments, garments[1:], strict=False):
+        if a.deformrt.layer == b.deformrt.layer:
+            raise LayeringInputError(f"{a.name} and {b.name} are both on layer {a.deformrt.layer}: "
+                                     "move one with the arrows in the Layers panel")
+    if min(layers) < 1:
+        raise LayeringInputError(f"{garments[0].name} is on layer {min(layers)}: garments start at layer 1")
+    return bodies[0], garments
+
+
+def part_groups(obj, scheme) -> list:
+    """The object's DRT_<part> vertex group names of ``scheme``, in the scheme's order."""
+    names = [PART_GROUP_PREFIX + p for p in scheme.parts]
+    return [n for n in names if n in obj.vertex_groups]
+
+
+def body_parts(body, scheme_name, vertices, painted_groups=True):
+    """Part id per evaluated body vertex, and where it came from; (None, reason) without.
+
+    In order: DRT_<part> vertex groups (auto-segmented or painted), the stored part
+    attribute of the sample figures, a rig's deform groups named after the limbs."""
+    if scheme_name == "NONE":
+        return None, "whole body"
+    scheme = get_scheme(scheme_name)
+    painted = [n for n in part_groups(body, scheme) if n != PART_GROUP_PREFIX + "skirt"] if painted_groups else []
+    if painted:
+        w = mesh_io.read_vertex_groups(body, painted)
+        names = [n[len(PART_GROUP_PREFIX):] for n in painted]
+        return segments_from_groups(w, names, scheme, vertices), "DRT_ vertex groups"
+    stored = mesh_io.read_point_ints(body, scene_roles.PART_ATTRIBUTE[scheme.name])
+    if stored is not None:
+        return np.clip(stored, 0, scheme.skirt - 1), f"attribute {scene_roles.PART_ATTRIBUTE[scheme.name]}"
+    names = [g.name for g in body.vertex_groups if not g.name.startswith(PART_GROUP_PREFIX)]
+    if names and len({part_of_group(n, scheme) for n in names}) > 1:
+        w = mesh_io.read_vertex_groups(body, names)
+        return segments_from_groups(w, names, scheme, vertices), "armature vertex groups"
+    return None, "connected pieces (no part groups on the body)"
+
+
+def garment_parts(garment, scheme_name):
+    """Segment per evaluated garment vertex from its DRT_<part> groups, or None (nearest body part)."""
+    if scheme_name == "NONE":
+        return None
+    scheme = get_scheme(scheme_name)
+    painted = part_groups(garment, scheme)
+    if not painted:
+        return None
+    w = mesh_io.read_vertex_groups(garment, painted)
+    ids = np.array([scheme.parts.index(n[len(PART_GROUP_PREFIX):]) for n in painted])
+    return ids[np.argmax(w, axis=1)]
+
+
+def read_scene(scene, scheme_name):
+    """Evaluated body and garments (world space) without any earlier result applied."""
+    body, garments = layered_objects(scene)
+    shown = [results.set_enabled(g, False) for g in garments]
+    try:
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        arrays = [mesh_io.read_mesh(o, depsgraph) for o in (body, *garments)]
+        parts, source = body_parts(body, scheme_name, arrays[0].vertices)
+        g_parts = [garment_parts(g, scheme_name) for g in garments]
+    finally:
+        for g, was in zip(garments, shown, strict=True):
+            if was:
+                results.set_enabled(g, True)
+    return body, garments, arrays, parts, source, g_parts
+
+
+def resolve_scene(scene, progress=None) -> ResolveSummary:
+    """Resolve the scene's tagged garments and show the result on them (non-destructively)."""
+    settings = scene.deformrt
+    t0 = time.perf_counter()
+    step = progress or (lambda _k: None)
+    body, garments, arrays, parts, source, g_parts = read_scene(scene, settings.scheme)
+    if len(garments) < 2:
+        raise LayeringInputError(f"Only one garment ({garments[0].name}): nothing is worn over it, nothing to resolve")
+    for obj, a in zip([body, *garments], arrays, strict=True):
+        if not len(a.triangles):
+            raise LayeringInputError(f"{obj.name} has no faces after its modifiers")
+    read_s = time.perf_counter() - t0
+    step(1)
+    params = {"boundary_pass": settings.boundary_pass, "remove_hidden": settings.remove_hidden}
+    if settings.offset > 0:
+        params["offset"] = settings.offset
+    if settings.probe_distance > 0:
+        params["probe_distance"] = settings.probe_distance
+    if parts is not None:
+        params.update(body_segments=parts, scheme=settings.scheme)
+        if any(p is not None for p in g_parts):
+            params["garment_segments"] = g_parts
+    mesh = lambda a: trimesh.Trimesh(a.vertices, a.triangles, process=False, validate=False)  # noqa: E731
+    result = resolve_layers(mesh(arrays[0]), [mesh(a) for a in arrays[1:]], **params)
+    step(2)
+    t1 = time.perf_counter()
+    faces_hidden = []
+    for obj, a, moved, removed in zip(garments, arrays[1:], result.moved, result.removed_faces, strict=True):
+        to_local = np.linalg.inv(a.matrix_world[:3, :3])
+        hidden = np.zeros(a.n_polygons, dtype=bool)
+        hidden[a.triangle_polygon[removed]] = True
+        faces_hidden.append(int(hidden.sum()))
+        results.write(scene, obj, moved @ to_local.T, hidden)
+    write_s = time.perf_counter() - t1
+    step(3)
+    st = result.stats
+    summary = ResolveSummary(body.name, [g.name for g in garments], source, st,
+                             [float(np.linalg.norm(m, axis=1).max(initial=0.0)) for m in result.moved], faces_hidden,
+                             {"read_s": read_s, "resolve_s": st["total_s"], "write_s": write_s,
+                              "total_s": time.perf_counter() - t0})
+    return summary
+
+
+def clear_scene(scene) -> int:
+    """Remove every garment's result; returns how many there were."""
+    # data objects are removed on the way: collect the garments first
+    wearing = [o for o in scene.objects if o.type == "MESH" and results.result_modifier(o) is not None]
+    return sum(results.clear(o) for o in wearing)
+
+
+def _write_parts(obj, arrays, parts, scheme):
+    if len(obj.data.vertices) != len(arrays.vertices):
+        raise LayeringInputError(f"{obj.name}'s modifiers change its vertex count ({len(obj.data.vertices)} -> "
+                                 f"{len(arrays.vertices)}): part groups need the mesh's own vertices; apply them "
+                                 "or paint DRT_<part> groups by hand")
+    for group in [g for g in obj.vertex_groups if g.name.startswith(PART_GROUP_PREFIX)]:
+        obj.vertex_groups.remove(group)
+    present = np.unique(parts)
+    onehot = (parts[:, None] == present[None, :]).astype(np.float64)
+    mesh_io.write_vertex_groups(obj, [PART_GROUP_PREFIX + scheme.parts[p] for p in present], onehot)
+
+
+def auto_segment(scene) -> str:
+    """Write DRT_<part> vertex groups on the body and every garment (skirts found), from the
+    body's rig groups or stored parts; the user can repaint them and the resolve honours them."""
+    settings = scene.deformrt
+    if settings.scheme == "NONE":
+        raise LayeringInputError("Pick a part scheme (5 or 13 parts) to segment by")
+    scheme = get_scheme(settings.scheme)
+    body, garments = layered_objects(scene)
+    shown = [results.set_enabled(g, False) for g in garments]
+    try:
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        arrays = [mesh_io.read_mesh(o, depsgraph) for o in (body, *garments)]
+        parts, source = body_parts(body, settings.scheme, arrays[0].vertices, painted_groups=False)
+        if parts is None:
+            raise LayeringInputError(f"{body.name} has no rig vertex groups or stored parts to segment by: "
+                                     "paint DRT_<part> groups (DRT_torso, DRT_left_arm, ...) by hand")
+        mesh = lambda a: trimesh.Trimesh(a.vertices, a.triangles, process=False, validate=False)  # noqa: E731
+        # correspondence and segmentation only: every moving stage off
+        found = resolve_layers(mesh(arrays[0]), [mesh(a) for a in arrays[1:]], body_segments=parts,
+                               scheme=scheme, boundary_pass=False, push_behind=False, remove_hidden=False)
+        for obj, a in zip(garments, arrays[1:], strict=True):
+            if len(obj.data.vertices) != len(a.vertices):
+                raise LayeringInputError(f"{obj.name}'s modifiers change its vertex count: apply them or paint "
+                                         "DRT_<part> groups by hand")
+        _write_parts(body, arrays[0], parts, scheme)
+        for obj, a, seg in zip(garments, arrays[1:], found.segments, strict=True):
+            _write_parts(obj, a, seg, scheme)
+    finally:
+        for g, was in zip(garments, shown, strict=True):
+            if was:
+                results.set_enabled(g, True)
+    skirts = [garments[i].name for i in found.stats["skirts"]]
+    return (f"Segmented {body.name} and {len(garments)} garments into {scheme.name} parts from {source}"
+            + (f"; skirts: {', '.join(skirts)}" if skirts else ""))

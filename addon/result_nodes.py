@@ -1,0 +1,71 @@
+"""The Geometry Nodes group that shows a garment's resolved layering without touching its mesh.
+
+The group sits last in the garment's modifier stack. It reads the correction from a small
+data object (offsets per evaluated vertex, a hidden flag per evaluated face, both stored by
+index) and applies it to whatever the stack above produced, so the garment keeps its own
+materials, UVs, modifiers and edit history; switching the modifier off shows it as fitted.
+"""
+
+import bpy
+
+GROUP_NAME = "DeformRT Result"
+# Bump when the node layout changes: files saved with an older group get it rebuilt.
+GROUP_VERSION = 1
+OFFSET_ATTRIBUTE = "deformrt_offset"
+HIDDEN_ATTRIBUTE = "deformrt_hidden"
+DATA_SOCKET = "Result Data"
+
+
+def _build(group):
+    group.interface.clear()
+    group.nodes.clear()
+    group.interface.new_socket(name="Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    group.interface.new_socket(name=DATA_SOCKET, in_out="INPUT", socket_type="NodeSocketObject")
+    group.interface.new_socket(name="Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    nodes, links = group.nodes, group.links
+    inputs, output = nodes.new("NodeGroupInput"), nodes.new("NodeGroupOutput")
+    info = nodes.new("GeometryNodeObjectInfo")
+    info.transform_space = "ORIGINAL"
+    links.new(inputs.outputs[DATA_SOCKET], info.inputs["Object"])
+    index = nodes.new("GeometryNodeInputIndex")
+
+    def sampled(attribute, data_type):
+        named = nodes.new("GeometryNodeInputNamedAttribute")
+        named.data_type = data_type
+        named.inputs["Name"].default_value = attribute
+        sample = nodes.new("GeometryNodeSampleIndex")
+        sample.data_type, sample.domain = data_type, "POINT"
+        links.new(info.outputs["Geometry"], sample.inputs["Geometry"])
+        links.new(named.outputs["Attribute"], sample.inputs["Value"])
+        links.new(index.outputs["Index"], sample.inputs["Index"])
+        return sample.outputs["Value"]
+
+    move = nodes.new("GeometryNodeSetPosition")
+    links.new(inputs.outputs["Geometry"], move.inputs["Geometry"])
+    links.new(sampled(OFFSET_ATTRIBUTE, "FLOAT_VECTOR"), move.inputs["Offset"])
+    drop = nodes.new("GeometryNodeDeleteGeometry")
+    drop.domain = "FACE"
+    links.new(move.outputs["Geometry"], drop.inputs["Geometry"])
+    links.new(sampled(HIDDEN_ATTRIBUTE, "BOOLEAN"), drop.inputs["Selection"])
+    links.new(drop.outputs["Geometry"], output.inputs["Geometry"])
+    for i, node in enumerate((inputs, info, index, move, drop, output)):
+        node.location = (220 * i, 0)
+    group["deformrt_version"] = GROUP_VERSION
+
+
+def node_group():
+    """The shared group, built on first use (or rebuilt when it is from another version)."""
+    group = bpy.data.node_groups.get(GROUP_NAME)
+    if group is None or group.bl_idname != "GeometryNodeTree":
+        group = bpy.data.node_groups.new(GROUP_NAME, "GeometryNodeTree")
+    if group.get("deformrt_version") != GROUP_VERSION:
+        _build(group)
+    return group
+
+
+def data_socket_id(group) -> str:
+    """The modifier key of the data-object input (Blender names it ``Socket_<n>``)."""
+    for item in group.interface.items_tree:
+        if item.item_type == "SOCKET" and item.in_out == "INPUT" and item.name == DATA_SOCKET:
+            return item.identifier
+    raise RuntimeError(f"node group {group.name!r} has no {DATA_SOCKET!r} input")

@@ -1,0 +1,159 @@
+"""Non-destructive layering results on garment objects, and baking them to plain meshes.
+
+Each resolved garment gets a "DeformRT" Geometry Nodes modifier (last in its stack) and a
+hidden data object in the "DeformRT Data" collection holding the correction. The
+garment's own mesh is never written; Clear removes both and the garment renders as fitted.
+"""
+
+import bpy
+import numpy as np
+
+from . import result_nodes, scene_roles
+
+MODIFIER_NAME = "DeformRT"
+DATA_COLLECTION = "DeformRT Data"
+BAKED_COLLECTION = scene_roles.BAKED_COLLECTION
+
+
+def result_modifier(obj):
+    """The garment's DeformRT result modifier, or None."""
+    for mod in obj.modifiers:
+        if mod.type == "NODES" and mod.node_group is not None and mod.node_group.name == result_nodes.GROUP_NAME:
+            return mod
+    return None
+
+
+def data_object(obj):
+    mod = result_modifier(obj)
+    if mod is None:
+        return None
+    return mod.get(result_nodes.data_socket_id(mod.node_group))
+
+
+def set_enabled(obj, enabled: bool) -> bool:
+    """Show or bypass the garment's result (to read what its stack produces on its own).
+    Returns whether it was shown before."""
+    mod = result_modifier(obj)
+    if mod is None:
+        return False
+    before = mod.show_viewport
+    mod.show_viewport = mod.show_render = enabled
+    return before
+
+
+def _data_collection(scene):
+    coll = bpy.data.collections.get(DATA_COLLECTION)
+    if coll is None:
+        coll = bpy.data.collections.new(DATA_COLLECTION)
+        coll.hide_render = True
+        coll.hide_viewport = True
+    if coll.name not in scene.collection.children:
+        scene.collection.children.link(coll)
+    return coll
+
+
+def _fill_data_mesh(mesh, offsets, hidden):
+    """Offsets per vertex and hidden flags per face, both indexed from 0 on the data mesh's
+    points (a point cloud in mesh form: the Sample Index nodes read them by index)."""
+    count = max(len(offsets), len(hidden))
+    if len(mesh.vertices) != count or mesh.polygons:
+        mesh.clear_geometry()
+        mesh.vertices.add(count)
+    for name, kind in ((result_nodes.OFFSET_ATTRIBUTE, "FLOAT_VECTOR"), (result_nodes.HIDDEN_ATTRIBUTE, "BOOLEAN")):
+        attr = mesh.attributes.get(name)
+        if attr is None or attr.data_type != kind or attr.domain != "POINT":
+            if attr is not None:
+                mesh.attributes.remove(attr)
+            mesh.attributes.new(name, kind, "POINT")
+    off = np.zeros((count, 3), dtype=np.float32)
+    off[:len(offsets)] = offsets
+    mesh.attributes[result_nodes.OFFSET_ATTRIBUTE].data.foreach_set("vector", off.ravel())
+    hid = np.zeros(count, dtype=bool)
+    hid[:len(hidden)] = hidden
+    mesh.attributes[result_nodes.HIDDEN_ATTRIBUTE].data.foreach_set("value", hid)
+    mesh.update()
+
+
+def write(scene, obj, offsets_local, hidden_faces, stats=None) -> None:
+    """Show ``obj`` moved by ``offsets_local`` (per evaluated vertex, object space) and
+    without ``hidden_faces`` (per evaluated polygon): data object and modifier, created or
+    updated."""
+    group = result_nodes.node_group()
+    key = result_nodes.data_socket_id(group)
+    mod = result_modifier(obj)
+    if mod is not None and obj.modifiers[-1] != mod:
+        data = mod.get(key)
+        obj.modifiers.remove(mod)  # ours, with no settings of the user's: re-add it last
+        mod = None
+    else:
+        data = mod.get(key) if mod is not None else None
+    if data is None:
+        mesh = bpy.data.meshes.new(f"DeformRT {obj.name}")
+        data = bpy.data.objects.new(f"DeformRT {obj.name}", mesh)
+        data.hide_render = True
+        data.hide_viewport = True
+        _data_collection(scene).objects.link(data)
+    _fill_data_mesh(data.data, offsets_local, hidden_faces)
+    if stats:
+        data["deformrt_stats"] = stats
+    if mod is None:
+        mod = obj.modifiers.new(MODIFIER_NAME, "NODES")
+        mod.node_group = group
+        mod.show_expanded = False
+    mod[key] = data
+    mod.show_viewport = mod.show_render = True
+    obj.update_tag()
+
+
+def clear(obj) -> bool:
+    """Remove the garment's result (modifier and data). Returns whether it had one."""
+    mod = result_modifier(obj)
+    if mod is None:
+        return False
+    data = mod.get(result_nodes.data_socket_id(mod.node_group))
+    obj.modifiers.remove(mod)
+    if data is not None and not any(data_object(o) == data for o in bpy.data.objects if o.type == "MESH"):
+        mesh = data.data
+        bpy.data.objects.remove(data)
+        if mesh is not None and mesh.users == 0:
+            bpy.data.meshes.remove(mesh)
+    coll = bpy.data.collections.get(DATA_COLLECTION)
+    if coll is not None and not coll.objects:
+        bpy.data.collections.remove(coll)
+    group = bpy.data.node_groups.get(result_nodes.GROUP_NAME)
+    if group is not None and group.users == 0:
+        bpy.data.node_groups.remove(group)
+    return True
+
+
+def bake(scene, objects, depsgraph) -> list:
+    """Plain meshes of what ``objects`` render now (modifiers applied, result included) in
+    the "DeformRT Baked" collection, each keeping its role, layer, materials and placement;
+    an earlier bake of the same object is replaced. The collection starts hidden (in
+    viewport and render) so the scene does not show everything twice; it is for export."""
+    coll = bpy.data.collections.get(BAKED_COLLECTION)
+    if coll is None:
+        coll = bpy.data.collections.new(BAKED_COLLECTION)
+        coll.hide_viewport = True
+        coll.hide_render = True
+    if coll.name not in scene.collection.children:
+        scene.collection.children.link(coll)
+    baked = []
+    for obj in objects:
+        name = f"{obj.name} (baked)"
+        old = coll.objects.get(name)
+        if old is not None:
+            old_mesh = old.data
+            bpy.data.objects.remove(old)
+            if old_mesh.users == 0:
+                bpy.data.meshes.remove(old_mesh)
+        mesh = bpy.data.meshes.new_from_object(obj.evaluated_get(depsgraph), preserve_all_data_layers=True,
+                                               depsgraph=depsgraph)
+        mesh.name = name
+        new = bpy.data.objects.new(name, mesh)
+        new.matrix_world = obj.matrix_world.copy()
+        new.deformrt.role = obj.deformrt.role
+        new.deformrt.layer = obj.deformrt.layer
+        coll.objects.link(new)
+        baked.append(new)
+    return baked

@@ -1,0 +1,218 @@
+"""deformrt.resolve_layers, clear_results and bake_results driven through bpy as a pipeline
+would: what renders afterwards, what stays of the user's meshes, and the refusals."""
+
+import importlib
+import json
+
+import bpy
+import numpy as np
+import pytest
+from mathutils.bvhtree import BVHTree
+
+
+def sub(ext, path):
+    return importlib.import_module(f"{ext.__name__}.{path}")
+
+
+def evaluated(obj):
+    """World-space vertices and triangles of what the object renders now (Blender's own
+    evaluation, read without the add-on's mesh IO)."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    ev = obj.evaluated_get(depsgraph)
+    mesh = ev.to_mesh()
+    try:
+        mesh.calc_loop_triangles()
+        co = np.empty(len(mesh.vertices) * 3)
+        mesh.vertices.foreach_get("co", co)
+        tris = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
+        mesh.loop_triangles.foreach_get("vertices", tris)
+    finally:
+        ev.to_mesh_clear()
+    mw = np.array(obj.matrix_world)
+    return co.reshape(-1, 3) @ mw[:3, :3].T + mw[:3, 3], tris.reshape(-1, 3)
+
+
+def overlapping_pairs(a, b) -> int:
+    """Intersecting triangle pairs between two meshes by mathutils' BVH (independent of core.metrics)."""
+    ta = BVHTree.FromPolygons(a[0].tolist(), a[1].tolist(), all_triangles=True)
+    tb = BVHTree.FromPolygons(b[0].tolist(), b[1].tolist(), all_triangles=True)
+    return len(ta.overlap(tb))
+
+
+def mesh_state(obj):
+    """The object's own mesh data (not evaluated): what the resolve must never change."""
+    co = np.empty(len(obj.data.vertices) * 3)
+    obj.data.vertices.foreach_get("co", co)
+    return co, len(obj.data.polygons), [m.name for m in obj.modifiers]
+
+
+@pytest.fixture
+def tubes(extension, clean_scene):
+    body, garments = sub(extension, "sample_scenes.tubes").build(seed=0, resolution=48)
+    return body, garments
+
+
+def test_resolve_leaves_nothing_crossing_in_what_renders(extension, tubes):
+    body, (shirt, jacket) = tubes
+    before = overlapping_pairs(evaluated(shirt), evaluated(jacket))
+    assert before > 0
+    own = [mesh_state(o) for o in (body, shirt, jacket)]
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    assert overlapping_pairs(evaluated(shirt), evaluated(jacket)) == 0
+    assert overlapping_pairs(evaluated(body), evaluated(shirt)) == 0
+    # the meshes themselves are untouched: the result is a modifier
+    for obj, (co, polys, _) in zip((body, shirt, jacket), own, strict=True):
+        now = mesh_state(obj)
+        np.testing.assert_array_equal(now[0], co)
+        assert now[1] == polys
+    assert [m.name for m in shirt.modifiers] == ["DeformRT"]
+    assert not body.modifiers
+    # every render-visible object still carries its role and layer; the data objects do not render
+    visible = [o for o in bpy.context.scene.objects if o.type == "MESH" and not o.hide_render]
+    assert {o.name for o in visible} == {body.name, shirt.name, jacket.name}
+    assert [o.deformrt.layer for o in (body, shirt, jacket)] == [0, 1, 2]
+
+
+def test_resolving_twice_gives_the_same_result_and_clear_removes_every_trace(extension, tubes):
+    body, garments = tubes
+    fitted = [evaluated(g) for g in garments]
+    names = (set(bpy.data.objects.keys()), set(bpy.data.meshes.keys()), set(bpy.data.collections.keys()),
+             set(bpy.data.node_groups.keys()))
+    bpy.ops.deformrt.resolve_layers()
+    first = [evaluated(g) for g in garments]
+    assert any(not np.array_equal(f[0], r[0]) for f, r in zip(fitted, first, strict=True))
+    bpy.ops.deformrt.resolve_layers()
+    second = [evaluated(g) for g in garments]
+    for a, b in zip(first, second, strict=True):
+        np.testing.assert_array_equal(a[0], b[0])
+        np.testing.assert_array_equal(a[1], b[1])
+    assert bpy.ops.deformrt.clear_results() == {"FINISHED"}
+    for f, c in zip(fitted, (evaluated(g) for g in garments), strict=True):
+        np.testing.assert_array_equal(f[0], c[0])
+        np.testing.assert_array_equal(f[1], c[1])
+    assert (set(bpy.data.objects.keys()), set(bpy.data.meshes.keys()), set(bpy.data.collections.keys()),
+            set(bpy.data.node_groups.keys())) == names
+    assert not any(m.type == "NODES" for g in garments for m in g.modifiers)
+
+
+def test_modifiers_on_the_inputs_count(extension, tubes):
+    body, (shirt, jacket) = tubes
+    # a subdivided jacket and a shirt moved by its object transform: the resolve sees both
+    jacket.modifiers.new("Subdivision", "SUBSURF").levels = 1
+    shirt.location.z += 0.01
+    assert overlapping_pairs(evaluated(shirt), evaluated(jacket)) > 0
+    bpy.ops.deformrt.resolve_layers()
+    assert [m.name for m in jacket.modifiers] == ["Subdivision", "DeformRT"]
+    assert overlapping_pairs(evaluated(shirt), evaluated(jacket)) == 0
+    # the user adds a modifier afterwards: the next resolve puts the result last again
+    shirt.modifiers.new("Smooth", "SMOOTH")
+    bpy.ops.deformrt.resolve_layers()
+    assert [m.name for m in shirt.modifiers] == ["Smooth", "DeformRT"]
+    assert overlapping_pairs(evaluated(shirt), evaluated(jacket)) == 0
+
+
+def test_armature_posed_figure_resolves(extension, clean_scene):
+    dressed = sub(extension, "sample_scenes.dressed")
+    body, rig, garments = dressed.posed()
+    bpy.context.scene.frame_set(2)
+    layers = [evaluated(o) for o in (body, *garments)]
+    crossing = sum(overlapping_pairs(layers[i], layers[j]) for i in range(1, 4) for j in range(i + 1, 4))
+    assert crossing > 0
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    layers = [evaluated(o) for o in (body, *garments)]
+    after = sum(overlapping_pairs(layers[i], layers[j]) for i in range(1, 4) for j in range(i + 1, 4))
+    assert after <= 0.01 * crossing
+
+
+def test_bake_writes_plain_meshes_with_role_and_layer(extension, tubes):
+    body, garments = tubes
+    bpy.ops.deformrt.resolve_layers()
+    assert bpy.ops.deformrt.bake_results() == {"FINISHED"}
+    coll = bpy.data.collections["DeformRT Baked"]
+    baked = {o.name: o for o in coll.objects}
+    assert set(baked) == {f"{o.name} (baked)" for o in (body, *garments)}
+    for obj in (body, *garments):
+        b = baked[f"{obj.name} (baked)"]
+        assert not b.modifiers and (b.deformrt.role, b.deformrt.layer) == (obj.deformrt.role, obj.deformrt.layer)
+        np.testing.assert_allclose(evaluated(b)[0], evaluated(obj)[0], atol=1e-6)
+    # baking again replaces, does not duplicate
+    bpy.ops.deformrt.bake_results()
+    assert len(coll.objects) == 3
+
+
+def _refuses(match):
+    with pytest.raises(RuntimeError, match=match):
+        bpy.ops.deformrt.resolve_layers()
+
+
+def _untouched(objs):
+    assert not any(m.type == "NODES" for o in objs for m in o.modifiers)
+    assert "DeformRT Data" not in bpy.data.collections
+
+
+def test_scenes_that_cannot_be_resolved_are_refused_unchanged(extension, tubes):
+    body, (shirt, jacket) = tubes
+    body.deformrt.role = "NONE"
+    _refuses("No body")
+    body.deformrt.role = "BODY"
+    jacket.deformrt.layer = 1
+    _refuses("both on layer 1")
+    jacket.deformrt.layer = 2
+    jacket.hide_set(True)
+    _refuses("Jacket is hidden")
+    jacket.hide_set(False)
+    jacket.deformrt.role = "NONE"
+    _refuses("Only one garment")
+    jacket.deformrt.role = "GARMENT"
+    empty = bpy.data.objects.new("Rig", None)
+    bpy.context.scene.collection.objects.link(empty)
+    empty.deformrt.role = "GARMENT"
+    _refuses("not a mesh")
+    _untouched([body, shirt, jacket])
+
+
+def _group_members(obj, name):
+    """Vertices in a group, read per vertex on purpose: an independent path from the add-on's
+    bulk Geometry Nodes reader."""
+    g = obj.vertex_groups[name].index
+    return {v.index for v in obj.data.vertices if any(e.group == g and e.weight > 0 for e in v.groups)}
+
+
+def test_painted_part_groups_are_honoured(extension, tubes):
+    body, (shirt, jacket) = tubes
+    io = sub(extension, "addon.mesh_io")
+    for obj, part in ((body, "torso"), (shirt, "torso"), (jacket, "left_arm")):
+        io.write_vertex_groups(obj, [f"DRT_{part}"], np.ones((len(obj.data.vertices), 1)))
+    bpy.ops.deformrt.resolve_layers()
+    report = json.loads(bpy.context.scene.deformrt.last_report)
+    # the jacket is painted onto another part: the shirt's probes may not meet it, nothing moves
+    assert report["parts"] == "DRT_ vertex groups" and report["max_move"][0] == 0.0
+    jacket.vertex_groups.clear()
+    io.write_vertex_groups(jacket, ["DRT_torso"], np.ones((len(jacket.data.vertices), 1)))
+    bpy.ops.deformrt.resolve_layers()
+    assert json.loads(bpy.context.scene.deformrt.last_report)["max_move"][0] > 0.005
+    assert overlapping_pairs(evaluated(shirt), evaluated(jacket)) == 0
+
+
+def test_auto_segment_writes_the_figures_parts_and_finds_the_dresses(extension, clean_scene):
+    dressed = sub(extension, "sample_scenes.dressed")
+    body, _, garments = dressed.fig_4_13()
+    io = sub(extension, "addon.mesh_io")
+    stored = io.read_point_ints(body, "deformrt_part_s5")  # written by the figure's builder
+    assert bpy.ops.deformrt.auto_segment() == {"FINISHED"}
+    parts = ("torso", "right_arm", "left_arm", "right_leg", "left_leg")
+    for i, part in enumerate(parts):
+        assert _group_members(body, f"DRT_{part}") == set(np.flatnonzero(stored == i).tolist())
+    names = {g.name: {vg.name for vg in g.vertex_groups if vg.name.startswith("DRT_")} for g in garments}
+    assert "DRT_skirt" in names["Dress"] and "DRT_skirt" in names["Overdress"]
+    assert "DRT_skirt" not in names["Pants"] and {"DRT_right_leg", "DRT_left_leg"} <= names["Pants"]
+    # each garment vertex is in exactly one part group
+    for g in garments:
+        counts = np.zeros(len(g.data.vertices), int)
+        for name in names[g.name]:
+            counts[list(_group_members(g, name))] += 1
+        assert (counts == 1).all()
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    assert "DRT_ vertex groups" in bpy.context.scene.deformrt.last_report
+    layers = [evaluated(o) for o in garments]
+    assert sum(overlapping_pairs(layers[i], layers[j]) for i in range(4) for j in range(i + 1, 4)) == 0
