@@ -243,8 +243,8 @@ def test_skirt_points_on_the_legs_meet_a_higher_layer_of_the_torso():
 
 def test_given_skirt_segments_get_the_skirt_treatment():
     # segments passed back in (painted DRT_ groups) give what the skirt detection gave
-    body, ids = lower_body(n=24)
-    skirt, jacket = _skirt(n=32), mesh(*tube(0.17, 0.45, 0.95, n_around=32, n_along=12))
+    body, ids = lower_body()
+    skirt, jacket = _skirt(), mesh(*tube(0.17, 0.45, 0.95, n_around=64, n_along=24))
     found = resolve_layers(body, [skirt, jacket], body_segments=ids, scheme="S5", segment_margin=0.0)
     again = resolve_layers(body, [skirt, jacket], body_segments=ids, scheme="S5", segment_margin=0.0,
                            garment_segments=found.segments)
