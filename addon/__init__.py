@@ -3,7 +3,7 @@
 import bpy
 
 from ..operators import layering, tagging
-from . import cli, panels, preferences, properties
+from . import cli, frame_handler, panels, preferences, properties
 
 _classes = (*properties.CLASSES, *preferences.CLASSES, *tagging.CLASSES, *layering.CLASSES, *panels.CLASSES)
 _register_classes, _unregister_classes = bpy.utils.register_classes_factory(_classes)
@@ -14,9 +14,11 @@ def register():
     properties.attach()
     preferences.apply_thread_setting()
     cli.register()
+    frame_handler.register()
 
 
 def unregister():
+    frame_handler.unregister()
     cli.unregister()
     properties.detach()
     _unregister_classes()

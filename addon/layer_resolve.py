@@ -16,6 +16,9 @@ from ..core.segmentation import get_scheme, part_of_group, segments_from_groups
 from . import mesh_io, results, scene_roles
 
 PART_GROUP_PREFIX = "DRT_"
+# Garment-to-body correspondence from the first resolve of an animation (rest or first
+# frame), reused on later frames instead of searching again (the seed's posed pipeline).
+_correspondence_cache = {}
 
 
 class LayeringInputError(ValueError):
@@ -126,8 +129,19 @@ def read_scene(scene, scheme_name):
     return body, garments, arrays, parts, source, g_parts
 
 
-def resolve_scene(scene, progress=None) -> ResolveSummary:
-    """Resolve the scene's tagged garments and show the result on them (non-destructively)."""
+def _topology_key(objs, arrays):
+    return tuple((o.name, len(a.vertices), len(a.triangles)) for o, a in zip(objs, arrays, strict=True))
+
+
+def forget_correspondence():
+    _correspondence_cache.clear()
+
+
+def resolve_scene(scene, progress=None, reuse_correspondence=False) -> ResolveSummary:
+    """Resolve the scene's tagged garments and show the result on them (non-destructively).
+
+    With ``reuse_correspondence`` (playback, frame bakes) the garment-to-body correspondence
+    of the first such call is kept and reused while the meshes keep their topology."""
     settings = scene.deformrt
     t0 = time.perf_counter()
     step = progress or (lambda _k: None)
@@ -148,8 +162,14 @@ def resolve_scene(scene, progress=None) -> ResolveSummary:
         params.update(body_segments=parts, scheme=settings.scheme)
         if any(p is not None for p in g_parts):
             params["garment_segments"] = g_parts
+    key = _topology_key([body, *garments], arrays)
+    if reuse_correspondence and key in _correspondence_cache:
+        params["correspondence"] = _correspondence_cache[key]
     mesh = lambda a: trimesh.Trimesh(a.vertices, a.triangles, process=False, validate=False)  # noqa: E731
     result = resolve_layers(mesh(arrays[0]), [mesh(a) for a in arrays[1:]], **params)
+    if reuse_correspondence and key not in _correspondence_cache:
+        _correspondence_cache.clear()
+        _correspondence_cache[key] = result.correspondence
     step(2)
     t1 = time.perf_counter()
     faces_hidden = []

@@ -387,6 +387,9 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         elif len(c.triangle) != len(v) or (len(c.triangle) and c.triangle.max() >= len(bf)):
             raise ValueError(f"correspondence[{i}] is for another mesh: {len(c.triangle)} points for "
                              f"{len(v)} vertices, or triangles beyond the body's {len(bf)}")
+        else:
+            # the same body point, where the body is now (posed, or the cloth has moved)
+            c = BodyCorrespondence(c.triangle, c.bary, np.linalg.norm(v - c.points(bv, bf), axis=1))
         corr.append(c)
         if g_normals_in[i] is not None:
             n = np.asarray(g_normals_in[i], dtype=np.float64)

@@ -114,5 +114,75 @@ class DEFORMRT_OT_bake_results(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class DEFORMRT_OT_bake_frames(bpy.types.Operator):
+    """Resolve every frame of a range and write the garments (and body) as an Alembic mesh
+    cache, so a render farm or another tool needs no DeformRT"""
+
+    bl_idname = "deformrt.bake_frames"
+    bl_label = "Bake Frames"
+    bl_options = {"REGISTER", "UNDO"}
+
+    frame_start: bpy.props.IntProperty(name="Start", default=1, min=0)
+    frame_end: bpy.props.IntProperty(name="End", default=250, min=0)
+    filepath: bpy.props.StringProperty(name="File", subtype="FILE_PATH", default="//deformrt_layers.abc",
+                                       options={"PATH_SUPPORTS_BLEND_RELATIVE"})
+
+    @classmethod
+    def poll(cls, context):
+        if context.scene is None or not scene_roles.garments(context.scene):
+            cls.poll_message_set("Tag a body and garments first")
+            return False
+        return True
+
+    def invoke(self, context, _event):
+        self.frame_start, self.frame_end = context.scene.frame_start, context.scene.frame_end
+        return context.window_manager.invoke_props_dialog(self)
+
+    def execute(self, context):
+        scene = context.scene
+        if self.frame_end < self.frame_start:
+            self.report({"ERROR"}, f"End frame {self.frame_end} is before start frame {self.frame_start}")
+            return {"CANCELLED"}
+        try:
+            body, garments = layer_resolve.layered_objects(scene)
+        except ValueError as exc:
+            return _fail(self, exc)
+        if self.filepath.startswith("//") and not bpy.data.filepath:
+            self.report({"ERROR"}, "Save the file first or give an absolute path for the cache")
+            return {"CANCELLED"}
+        path = bpy.path.abspath(self.filepath)
+        settings = scene.deformrt
+        was_on, frame = settings.resolve_on_frame_change, scene.frame_current
+        selection = [o for o in scene.objects if o.select_get()]
+        layer_resolve.forget_correspondence()
+        settings.resolve_on_frame_change = True
+        stopped, result = False, None
+        try:
+            # the exporter steps the frames; the frame handler resolves each before it is written
+            scene.frame_set(self.frame_start)
+            for o in selection:
+                o.select_set(False)
+            for o in (body, *garments):
+                o.select_set(True)
+            result = bpy.ops.wm.alembic_export(filepath=path, start=self.frame_start, end=self.frame_end,
+                                               selected=True, visible_objects_only=False, uvs=True,
+                                               apply_subdiv=True, as_background_job=False)
+            stopped = not settings.resolve_on_frame_change
+        finally:
+            settings.resolve_on_frame_change = was_on and not stopped
+            for o in (body, *garments):
+                o.select_set(False)
+            for o in selection:
+                o.select_set(True)
+            scene.frame_set(frame)
+        if result != {"FINISHED"} or stopped:
+            self.report({"ERROR"}, "Bake stopped: " + (json.loads(settings.last_report or "{}").get("message", "")
+                                                        if stopped else "the Alembic export failed"))
+            return {"CANCELLED"}
+        n = self.frame_end - self.frame_start + 1
+        self.report({"INFO"}, f"Baked {n} frames of {len(garments)} garments to {path}")
+        return {"FINISHED"}
+
+
 CLASSES = (DEFORMRT_OT_resolve_layers, DEFORMRT_OT_auto_segment, DEFORMRT_OT_clear_results,
-           DEFORMRT_OT_bake_results)
+           DEFORMRT_OT_bake_results, DEFORMRT_OT_bake_frames)

@@ -216,3 +216,42 @@ def test_auto_segment_writes_the_figures_parts_and_finds_the_dresses(extension, 
     assert "DRT_ vertex groups" in bpy.context.scene.deformrt.last_report
     layers = [evaluated(o) for o in garments]
     assert sum(overlapping_pairs(layers[i], layers[j]) for i in range(4) for j in range(i + 1, 4)) == 0
+
+
+def _garment_overlaps(garments):
+    layers = [evaluated(o) for o in garments]
+    return sum(overlapping_pairs(layers[i], layers[j]) for i in range(len(layers)) for j in range(i + 1, len(layers)))
+
+
+def test_resolve_on_frame_change_follows_the_pose_and_bake_frames_writes_it(extension, clean_scene, tmp_path):
+    dressed = sub(extension, "sample_scenes.dressed")
+    body, _, garments = dressed.posed()
+    scene = bpy.context.scene
+    scene.frame_set(2)
+    assert _garment_overlaps(garments) > 0
+    scene.deformrt.resolve_on_frame_change = True
+    scene.frame_set(1)
+    scene.frame_set(2)
+    assert _garment_overlaps(garments) == 0
+    live = [evaluated(g)[0] for g in garments]
+    scene.deformrt.resolve_on_frame_change = False
+    bpy.ops.deformrt.clear_results()
+    path = tmp_path / "layers.abc"
+    assert bpy.ops.deformrt.bake_frames(frame_start=1, frame_end=2, filepath=str(path)) == {"FINISHED"}
+    assert not scene.deformrt.resolve_on_frame_change and scene.frame_current == 2
+    # read the cache back with Blender's own importer: frame 2 is the resolved pose
+    before = set(scene.objects)
+    bpy.ops.wm.alembic_import(filepath=str(path))
+    imported = {o.name.split(".")[0]: o for o in set(scene.objects) - before if o.type == "MESH"}
+    assert set(imported) == {body.name.split(".")[0], *(g.name for g in garments)}
+    scene.frame_set(1)
+    scene.frame_set(2)
+    for g, v in zip(garments, live, strict=True):
+        np.testing.assert_allclose(evaluated(imported[g.name])[0], v, atol=1e-5)
+
+
+def test_bake_frames_refuses_an_unsaved_relative_path(extension, tubes):
+    with pytest.raises(RuntimeError, match="Save the file first"):
+        bpy.ops.deformrt.bake_frames(frame_start=1, frame_end=2, filepath="//layers.abc")
+    with pytest.raises(RuntimeError, match="before start frame"):
+        bpy.ops.deformrt.bake_frames(frame_start=5, frame_end=2, filepath="/tmp/x.abc")

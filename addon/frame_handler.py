@@ -1,0 +1,40 @@
+"""Resolve on frame change: keeps the layering right through playback, animation renders and
+frame bakes when ``scene.deformrt.resolve_on_frame_change`` is on."""
+
+import json
+
+import bpy
+from bpy.app.handlers import persistent
+
+from . import layer_resolve
+
+_busy = False
+
+
+@persistent
+def on_frame_change(scene, _depsgraph=None):
+    global _busy
+    if _busy or not scene.deformrt.resolve_on_frame_change:
+        return
+    _busy = True  # reading the scene re-evaluates it; never re-enter
+    try:
+        layer_resolve.resolve_scene(scene, reuse_correspondence=True)
+    except (ValueError, RuntimeError) as exc:
+        # a handler cannot report to the user: say it once in the panel and the console
+        message = f"Resolve on frame change stopped at frame {scene.frame_current}: {exc}"
+        print(f"DeformRT: {message}")
+        scene.deformrt.resolve_on_frame_change = False
+        scene.deformrt.last_report = json.dumps({"message": message})
+    finally:
+        _busy = False
+
+
+def register():
+    if on_frame_change not in bpy.app.handlers.frame_change_post:
+        bpy.app.handlers.frame_change_post.append(on_frame_change)
+
+
+def unregister():
+    while on_frame_change in bpy.app.handlers.frame_change_post:
+        bpy.app.handlers.frame_change_post.remove(on_frame_change)
+    layer_resolve.forget_correspondence()
