@@ -20,7 +20,9 @@ class DEFORMRT_PT_layers(bpy.types.Panel):
         row = layout.row(align=True)
         row.operator("deformrt.tag_body", icon="OUTLINER_OB_ARMATURE")
         row.operator("deformrt.tag_garments", icon="MOD_CLOTH")
-        layout.operator("deformrt.clear_role", icon="X")
+        row = layout.row(align=True)
+        row.operator("deformrt.clear_role", icon="X")
+        row.operator("deformrt.order_by_kind", icon="SORTSIZE")
 
         body = scene_roles.bodies(scene)
         garments = scene_roles.garments(scene)

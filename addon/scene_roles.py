@@ -4,6 +4,33 @@
 PART_ATTRIBUTE = {"S5": "deformrt_part_s5", "S13": "deformrt_part_s13"}
 
 
+import re
+
+# Which garments are worn over which, by the words in their names (after MakeHuman's
+# z_depth table): underwear < shirts and trousers < sweaters < jackets < coats.
+_KIND_RANK = (
+    (0, ("underwear", "bra", "panties", "briefs", "boxers", "boxer", "sock", "socks", "tights", "stocking",
+         "stockings", "undershirt", "lingerie", "bodysuit", "leotard")),
+    (2, ("sweater", "pullover", "jumper", "hoodie", "cardigan", "vest", "waistcoat", "fleece", "sweatshirt")),
+    (3, ("jacket", "blazer", "anorak", "gilet")),
+    (4, ("coat", "overcoat", "parka", "cloak", "cape", "raincoat", "poncho", "trenchcoat")),
+)
+
+
+def kind_rank(name: str) -> float:
+    """How far out a garment of this name is usually worn (1 for shirts, trousers, dresses
+    and anything unknown); an "over" prefix (overshirt, overdress) puts it half a step out."""
+    words = [w for w in re.split(r"[^a-z]+", name.lower()) if w]
+    rank = 1.0
+    for value, keys in _KIND_RANK:
+        if any(w in keys or (w.startswith("over") and w[4:] in keys) for w in words):
+            rank = float(value)
+            break
+    if any(w.startswith("over") and len(w) > 4 for w in words):
+        rank += 0.5
+    return rank
+
+
 # Baked copies keep their role and layer for the tools they are exported to, but are not
 # inputs of the scene's own layering.
 BAKED_COLLECTION = "DeformRT Baked"

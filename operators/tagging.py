@@ -38,7 +38,8 @@ class DEFORMRT_OT_tag_body(bpy.types.Operator):
 
 
 class DEFORMRT_OT_tag_garments(bpy.types.Operator):
-    """Make the selected meshes garments, each on a new layer above the current outermost one"""
+    """Make the selected meshes garments, each on a new layer above the current outermost one,
+    ordered among themselves by kind (underwear, shirt or trousers, sweater, jacket, coat)"""
 
     bl_idname = "deformrt.tag_garments"
     bl_label = "Tag as Garments"
@@ -55,7 +56,7 @@ class DEFORMRT_OT_tag_garments(bpy.types.Operator):
         new = [o for o in _selected_meshes(context) if o.deformrt.role != "GARMENT"]
         skipped = len(_selected_meshes(context)) - len(new)
         layer = scene_roles.top_layer(context.scene)
-        for obj in sorted(new, key=lambda o: o.name):
+        for obj in sorted(new, key=lambda o: (scene_roles.kind_rank(o.name), o.name)):
             layer += 1
             obj.deformrt.role = "GARMENT"
             obj.deformrt.layer = layer
@@ -86,6 +87,30 @@ class DEFORMRT_OT_clear_role(bpy.types.Operator):
             obj.deformrt.role = "NONE"
             obj.deformrt.layer = 0
         self.report({"INFO"}, f"Cleared {len(cleared)} object(s)")
+        return {"FINISHED"}
+
+
+class DEFORMRT_OT_order_by_kind(bpy.types.Operator):
+    """Re-order all garments by kind: underwear, shirts and trousers, sweaters, jackets, coats
+    (garments of the same kind keep their order)"""
+
+    bl_idname = "deformrt.order_by_kind"
+    bl_label = "Order by Kind"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        if context.scene is None or len(scene_roles.garments(context.scene)) < 2:
+            cls.poll_message_set("Tag at least two garments")
+            return False
+        return True
+
+    def execute(self, context):
+        garments = scene_roles.garments(context.scene)
+        ordered = sorted(garments, key=lambda o: scene_roles.kind_rank(o.name))  # stable: ties keep layers
+        for layer, obj in enumerate(ordered, start=1):
+            obj.deformrt.layer = layer
+        self.report({"INFO"}, "Layers: " + " < ".join(o.name for o in ordered))
         return {"FINISHED"}
 
 
@@ -130,4 +155,5 @@ class DEFORMRT_OT_move_layer(bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = (DEFORMRT_OT_tag_body, DEFORMRT_OT_tag_garments, DEFORMRT_OT_clear_role, DEFORMRT_OT_move_layer)
+CLASSES = (DEFORMRT_OT_tag_body, DEFORMRT_OT_tag_garments, DEFORMRT_OT_clear_role, DEFORMRT_OT_order_by_kind,
+           DEFORMRT_OT_move_layer)

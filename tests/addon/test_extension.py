@@ -146,3 +146,20 @@ def test_cli_from_plain_python_runs_the_installed_extension(extension, tmp_path)
     assert (tmp_path / "before.png").stat().st_size > 1000
     table = (tmp_path / "metrics.md").read_text()
     assert "| Body | body | 0 |" in table
+
+
+def test_garments_tagged_together_are_ordered_by_kind(clean_scene):
+    # MakeHuman's z_depth order: underwear < shirt, trousers < sweater < jacket < coat
+    names = ["Winter Coat", "T-Shirt", "Boxers", "Denim Jacket", "Cardigan", "Overshirt"]
+    objs = [add_mesh(n) for n in names]
+    select(*objs)
+    bpy.ops.deformrt.tag_garments()
+    order = sorted(objs, key=lambda o: o.deformrt.layer)
+    assert [o.name for o in order] == ["Boxers", "T-Shirt", "Overshirt", "Cardigan", "Denim Jacket", "Winter Coat"]
+    # the user moves the coat in; Order by Kind puts it back out
+    coat = objs[0]
+    for _ in range(5):
+        bpy.ops.deformrt.move_layer(object_name=coat.name, direction="DOWN")
+    assert coat.deformrt.layer == 1
+    bpy.ops.deformrt.order_by_kind()
+    assert [o.deformrt.layer for o in order] == [1, 2, 3, 4, 5, 6]
