@@ -11,6 +11,7 @@ import bpy
 import numpy as np
 import trimesh
 
+from ..core import metrics
 from ..core.layering import resolve_layers
 from ..core.segmentation import get_scheme, part_of_group, segments_from_groups
 from . import mesh_io, results, scene_roles
@@ -242,3 +243,43 @@ def auto_segment(scene) -> str:
     skirts = [garments[i].name for i in found.stats["skirts"]]
     return (f"Segmented {body.name} and {len(garments)} garments into {scheme.name} parts from {source}"
             + (f"; skirts: {', '.join(skirts)}" if skirts else ""))
+
+
+def inspect_scene(scene) -> dict:
+    """Crossings, poke-through and distortion of the tagged layers as fitted and as shown now."""
+    body, garments = layered_objects(scene)
+    objs = [body, *garments]
+    shown = [results.set_enabled(g, False) for g in garments]
+    try:
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        fitted = [mesh_io.read_mesh(o, depsgraph) for o in objs]
+    finally:
+        for g, was in zip(garments, shown, strict=True):
+            if was:
+                results.set_enabled(g, True)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    now = [mesh_io.read_mesh(o, depsgraph) for o in objs]
+    before = [(a.vertices, a.triangles) for a in fitted]
+    after = [(a.vertices, a.triangles) for a in now]
+    cameras = metrics.camera_ring(*metrics.layer_bounds(before), views=8, resolution=96)
+    report = {
+        "kind": "inspect",
+        "crossings_before": int(np.triu(metrics.layer_crossings(before)).sum()),
+        "crossings_after": int(np.triu(metrics.layer_crossings(after)).sum()),
+        "poke_through_before": metrics.poke_through(before, cameras=cameras)[0],
+        "poke_through_after": metrics.poke_through(after, cameras=cameras)[0],
+        "max_move": 0.0,
+        "max_stretch": 1.0,
+    }
+    for obj, a in zip(garments, fitted[1:], strict=True):
+        off = results.read_offsets(obj, len(a.vertices))
+        if off is None:
+            continue
+        d = metrics.distortion(a.vertices, a.vertices + off @ a.matrix_world[:3, :3].T, a.triangles)
+        report["max_move"] = max(report["max_move"], d["max_move"])
+        report["max_stretch"] = max(report["max_stretch"], d["max_stretch"])
+    report["message"] = (f"Crossing edges {report['crossings_before']:,} -> {report['crossings_after']:,}, "
+                         f"poke-through {100 * report['poke_through_before']:.2f}% -> "
+                         f"{100 * report['poke_through_after']:.2f}%, max move {1000 * report['max_move']:.1f} mm, "
+                         f"max edge stretch {report['max_stretch']:.2f}x")
+    return report

@@ -75,6 +75,9 @@ class DEFORMRT_PT_resolve(bpy.types.Panel):
         row = layout.row(align=True)
         row.operator("deformrt.clear_results", icon="X")
         row.operator("deformrt.bake_results", icon="EXPORT")
+        row = layout.row(align=True)
+        row.operator("deformrt.inspect_layers", icon="VIEWZOOM")
+        row.operator("deformrt.bake_frames", icon="RENDER_ANIMATION")
         layout.prop(settings, "resolve_on_frame_change")
         report = _last_report(settings)
         if report:

@@ -105,6 +105,21 @@ def write(scene, obj, offsets_local, hidden_faces, stats=None) -> None:
     obj.update_tag()
 
 
+def read_offsets(obj, n_vertices):
+    """The garment's stored offsets (object space) for its first ``n_vertices`` evaluated
+    vertices, or None when it has no result."""
+    data = data_object(obj)
+    if data is None:
+        return None
+    attr = data.data.attributes.get(result_nodes.OFFSET_ATTRIBUTE)
+    out = np.zeros(len(data.data.vertices) * 3, dtype=np.float32)
+    attr.data.foreach_get("vector", out)
+    out = out.reshape(-1, 3).astype(np.float64)
+    full = np.zeros((n_vertices, 3))
+    full[:min(n_vertices, len(out))] = out[:n_vertices]
+    return full
+
+
 def clear(obj) -> bool:
     """Remove the garment's result (modifier and data). Returns whether it had one."""
     mod = result_modifier(obj)

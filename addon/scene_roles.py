@@ -1,10 +1,11 @@
 """Which objects of a scene take part in layering, in layer order."""
 
+import re
+
 # Integer vertex attributes holding a body's parts in each segmentation scheme (core.segmentation).
 PART_ATTRIBUTE = {"S5": "deformrt_part_s5", "S13": "deformrt_part_s13"}
 
 
-import re
 
 # Which garments are worn over which, by the words in their names (after MakeHuman's
 # z_depth table): underwear < shirts and trousers < sweaters < jackets < coats.

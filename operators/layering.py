@@ -114,6 +114,31 @@ class DEFORMRT_OT_bake_results(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class DEFORMRT_OT_inspect_layers(bpy.types.Operator):
+    """Measure the layers as fitted and as shown now: crossing edges, poke-through over 16
+    views, how far the resolve moved the garments and how much it stretched them"""
+
+    bl_idname = "deformrt.inspect_layers"
+    bl_label = "Inspect"
+    bl_options = {"REGISTER"}
+
+    @classmethod
+    def poll(cls, context):
+        if context.scene is None or not scene_roles.garments(context.scene):
+            cls.poll_message_set("Tag a body and garments first")
+            return False
+        return True
+
+    def execute(self, context):
+        try:
+            report = layer_resolve.inspect_scene(context.scene)
+        except (ValueError, RuntimeError) as exc:
+            return _fail(self, exc)
+        context.scene.deformrt.last_report = json.dumps(report)
+        self.report({"INFO"}, report["message"])
+        return {"FINISHED"}
+
+
 class DEFORMRT_OT_bake_frames(bpy.types.Operator):
     """Resolve every frame of a range and write the garments (and body) as an Alembic mesh
     cache, so a render farm or another tool needs no DeformRT"""
@@ -185,4 +210,4 @@ class DEFORMRT_OT_bake_frames(bpy.types.Operator):
 
 
 CLASSES = (DEFORMRT_OT_resolve_layers, DEFORMRT_OT_auto_segment, DEFORMRT_OT_clear_results,
-           DEFORMRT_OT_bake_results, DEFORMRT_OT_bake_frames)
+           DEFORMRT_OT_bake_results, DEFORMRT_OT_bake_frames, DEFORMRT_OT_inspect_layers)

@@ -255,3 +255,17 @@ def test_bake_frames_refuses_an_unsaved_relative_path(extension, tubes):
         bpy.ops.deformrt.bake_frames(frame_start=1, frame_end=2, filepath="//layers.abc")
     with pytest.raises(RuntimeError, match="before start frame"):
         bpy.ops.deformrt.bake_frames(frame_start=5, frame_end=2, filepath="/tmp/x.abc")
+
+
+def test_inspect_measures_before_and_after(extension, tubes):
+    body, (shirt, jacket) = tubes
+    bpy.ops.deformrt.inspect_layers()
+    fitted = json.loads(bpy.context.scene.deformrt.last_report)
+    assert fitted["crossings_before"] == fitted["crossings_after"] > 0 and fitted["max_move"] == 0.0
+    bpy.ops.deformrt.resolve_layers()
+    moved = json.loads(bpy.context.scene.deformrt.last_report)["max_move"]
+    bpy.ops.deformrt.inspect_layers()
+    report = json.loads(bpy.context.scene.deformrt.last_report)
+    assert report["crossings_after"] == 0 and report["poke_through_after"] < report["poke_through_before"]
+    # the move it measures from the shown geometry is the move the resolve reported
+    assert report["max_move"] == pytest.approx(max(moved), rel=1e-4)
