@@ -17,6 +17,8 @@ from ..core.segmentation import get_scheme, part_of_group, segments_from_groups
 from . import mesh_io, results, scene_roles
 
 PART_GROUP_PREFIX = "DRT_"
+GLOBAL_NORMAL_ATTRIBUTE = "deformrt_global_normal"
+GLOBAL_NORMAL_COLOR = "deformrt_global_normal_color"
 # Garment-to-body correspondence from the first resolve of an animation (rest or first
 # frame), reused on later frames instead of searching again (the seed's posed pipeline).
 _correspondence_cache = {}
@@ -123,11 +125,17 @@ def read_scene(scene, scheme_name):
         arrays = [mesh_io.read_mesh(o, depsgraph) for o in (body, *garments)]
         parts, source = body_parts(body, scheme_name, arrays[0].vertices)
         g_parts = [garment_parts(g, scheme_name) for g in garments]
+        g_normals = []
+        for g, a in zip(garments, arrays[1:], strict=True):
+            n = mesh_io.read_point_vectors(g, GLOBAL_NORMAL_ATTRIBUTE, depsgraph)
+            # stored in object space; normals turn with the inverse transpose
+            g_normals.append(None if n is None or len(n) != len(a.vertices)
+                             else n @ np.linalg.inv(a.matrix_world[:3, :3]))
     finally:
         for g, was in zip(garments, shown, strict=True):
             if was:
                 results.set_enabled(g, True)
-    return body, garments, arrays, parts, source, g_parts
+    return body, garments, arrays, parts, source, g_parts, g_normals
 
 
 def _topology_key(objs, arrays):
@@ -146,7 +154,7 @@ def resolve_scene(scene, progress=None, reuse_correspondence=False) -> ResolveSu
     settings = scene.deformrt
     t0 = time.perf_counter()
     step = progress or (lambda _k: None)
-    body, garments, arrays, parts, source, g_parts = read_scene(scene, settings.scheme)
+    body, garments, arrays, parts, source, g_parts, g_normals = read_scene(scene, settings.scheme)
     if len(garments) < 2:
         raise LayeringInputError(f"Only one garment ({garments[0].name}): nothing is worn over it, nothing to resolve")
     for obj, a in zip([body, *garments], arrays, strict=True):
@@ -163,6 +171,8 @@ def resolve_scene(scene, progress=None, reuse_correspondence=False) -> ResolveSu
         params.update(body_segments=parts, scheme=settings.scheme)
         if any(p is not None for p in g_parts):
             params["garment_segments"] = g_parts
+    if any(n is not None for n in g_normals):
+        params["global_normals"] = g_normals
     key = _topology_key([body, *garments], arrays)
     if reuse_correspondence and key in _correspondence_cache:
         params["correspondence"] = _correspondence_cache[key]
@@ -283,3 +293,35 @@ def inspect_scene(scene) -> dict:
                          f"{100 * report['poke_through_after']:.2f}%, max move {1000 * report['max_move']:.1f} mm, "
                          f"max edge stretch {report['max_stretch']:.2f}x")
     return report
+
+
+def transfer_normals(scene) -> str:
+    """Store each garment's global normals (the normal of the nearest body point, or the skirt
+    hull's) as a vector attribute the resolve then uses, plus a colour attribute to see them."""
+    settings = scene.deformrt
+    body, garments, arrays, parts, _, g_parts, _ = read_scene(scene, settings.scheme)
+    for obj, a in zip(garments, arrays[1:], strict=True):
+        if len(obj.data.vertices) != len(a.vertices):
+            raise LayeringInputError(f"{obj.name}'s modifiers change its vertex count: apply them first")
+    params = {"boundary_pass": False, "push_behind": False, "remove_hidden": False}
+    if parts is not None:
+        params.update(body_segments=parts, scheme=settings.scheme, garment_segments=g_parts)
+    mesh = lambda a: trimesh.Trimesh(a.vertices, a.triangles, process=False, validate=False)  # noqa: E731
+    found = resolve_layers(mesh(arrays[0]), [mesh(a) for a in arrays[1:]], **params)
+    for obj, a, n in zip(garments, arrays[1:], found.global_normals, strict=True):
+        local = n @ a.matrix_world[:3, :3]  # the inverse of the read's turn
+        local /= np.maximum(np.linalg.norm(local, axis=1, keepdims=True), 1e-30)
+        mesh_io.write_point_vectors(obj, GLOBAL_NORMAL_ATTRIBUTE, local, GLOBAL_NORMAL_COLOR)
+    return (f"Stored global normals on {len(garments)} garments as '{GLOBAL_NORMAL_ATTRIBUTE}' (see them: Solid "
+            f"shading, Color: Attribute, '{GLOBAL_NORMAL_COLOR}'); the resolve follows them until removed")
+
+
+def remove_normals(scene) -> int:
+    count = 0
+    for obj in scene_roles.garments(scene):
+        for name in (GLOBAL_NORMAL_ATTRIBUTE, GLOBAL_NORMAL_COLOR):
+            attr = obj.data.attributes.get(name)
+            if attr is not None:
+                obj.data.attributes.remove(attr)
+                count += 1
+    return count

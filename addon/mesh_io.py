@@ -166,3 +166,42 @@ def read_point_ints(obj, name: str, depsgraph=None):
     finally:
         evaluated.to_mesh_clear()
     return out.astype(np.int64)
+
+
+def write_point_vectors(obj, name: str, values, color_name: str | None = None) -> None:
+    """A vector per vertex as a mesh attribute; with ``color_name`` also as a colour
+    attribute (v * 0.5 + 0.5) that the viewport can show (Solid shading, Attribute colour)."""
+    mesh = obj.data
+    v = np.ascontiguousarray(values, dtype=np.float32).reshape(-1, 3)
+    for attr_name, kind in ((name, "FLOAT_VECTOR"), (color_name, "FLOAT_COLOR")):
+        if attr_name is None:
+            continue
+        old = mesh.attributes.get(attr_name)
+        if old is not None:
+            mesh.attributes.remove(old)
+        attr = mesh.attributes.new(attr_name, kind, "POINT")
+        if kind == "FLOAT_VECTOR":
+            attr.data.foreach_set("vector", v.ravel())
+        else:
+            rgba = np.ones((len(v), 4), dtype=np.float32)
+            rgba[:, :3] = v * 0.5 + 0.5
+            attr.data.foreach_set("color", rgba.ravel())
+    if color_name is not None:
+        mesh.color_attributes.active_color = mesh.color_attributes[color_name]
+
+
+def read_point_vectors(obj, name: str, depsgraph=None):
+    """The vector vertex attribute ``name`` of the evaluated mesh (object space), or None."""
+    if depsgraph is None:
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+    evaluated = obj.evaluated_get(depsgraph)
+    mesh = evaluated.to_mesh()
+    try:
+        attr = mesh.attributes.get(name)
+        if attr is None or attr.domain != "POINT" or attr.data_type != "FLOAT_VECTOR":
+            return None
+        out = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+        attr.data.foreach_get("vector", out)
+    finally:
+        evaluated.to_mesh_clear()
+    return out.reshape(-1, 3).astype(np.float64)

@@ -65,6 +65,9 @@ class DEFORMRT_PT_resolve(bpy.types.Panel):
         row = layout.row(align=True)
         row.prop(settings, "scheme")
         row.operator("deformrt.auto_segment", text="", icon="GROUP_VERTEX")
+        row = layout.row(align=True)
+        row.operator("deformrt.transfer_normals", icon="NORMALS_VERTEX")
+        row.operator("deformrt.transfer_normals", text="", icon="X").remove = True
         layout.prop(settings, "offset")
         layout.prop(settings, "probe_distance")
         layout.prop(settings, "boundary_pass")

@@ -71,6 +71,37 @@ class DEFORMRT_OT_auto_segment(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class DEFORMRT_OT_transfer_normals(bpy.types.Operator):
+    """Store each garment's global normals (from the body under it) as a vector attribute you
+    can see and edit; the resolve follows the stored ones until they are removed"""
+
+    bl_idname = "deformrt.transfer_normals"
+    bl_label = "Transfer Global Normals"
+    bl_options = {"REGISTER", "UNDO"}
+
+    remove: bpy.props.BoolProperty(name="Remove", description="Remove stored global normals instead",
+                                   default=False)
+
+    @classmethod
+    def poll(cls, context):
+        if context.scene is None or not scene_roles.garments(context.scene):
+            cls.poll_message_set("Tag a body and garments first")
+            return False
+        return True
+
+    def execute(self, context):
+        if self.remove:
+            n = layer_resolve.remove_normals(context.scene)
+            self.report({"INFO"}, f"Removed {n} stored normal attributes" if n else "No stored normals")
+            return {"FINISHED"}
+        try:
+            message = layer_resolve.transfer_normals(context.scene)
+        except (ValueError, RuntimeError) as exc:
+            return _fail(self, exc)
+        self.report({"INFO"}, message)
+        return {"FINISHED"}
+
+
 class DEFORMRT_OT_clear_results(bpy.types.Operator):
     """Remove the layering result from every garment (they render as fitted again)"""
 
@@ -209,5 +240,5 @@ class DEFORMRT_OT_bake_frames(bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = (DEFORMRT_OT_resolve_layers, DEFORMRT_OT_auto_segment, DEFORMRT_OT_clear_results,
-           DEFORMRT_OT_bake_results, DEFORMRT_OT_bake_frames, DEFORMRT_OT_inspect_layers)
+CLASSES = (DEFORMRT_OT_resolve_layers, DEFORMRT_OT_auto_segment, DEFORMRT_OT_transfer_normals,
+           DEFORMRT_OT_clear_results, DEFORMRT_OT_bake_results, DEFORMRT_OT_bake_frames, DEFORMRT_OT_inspect_layers)

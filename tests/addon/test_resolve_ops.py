@@ -269,3 +269,37 @@ def test_inspect_measures_before_and_after(extension, tubes):
     assert report["crossings_after"] == 0 and report["poke_through_after"] < report["poke_through_before"]
     # the move it measures from the shown geometry is the move the resolve reported
     assert report["max_move"] == pytest.approx(max(moved), rel=1e-4)
+
+
+def _attribute(obj, name):
+    attr = obj.data.attributes[name]
+    out = np.empty(len(obj.data.vertices) * 3, dtype=np.float32)
+    attr.data.foreach_get("vector", out)
+    return out.reshape(-1, 3).astype(np.float64)
+
+
+def test_transferred_global_normals_are_the_bodys_and_the_resolve_follows_them(extension, tubes):
+    body, (shirt, jacket) = tubes
+    shirt.rotation_euler.z = 0.7  # stored in object space: a turned object still gets the body's normals
+    assert bpy.ops.deformrt.transfer_normals() == {"FINISHED"}
+    n = _attribute(shirt, "deformrt_global_normal")
+    world = np.array(shirt.matrix_world)
+    v = np.array([list(p.co) for p in shirt.data.vertices]) @ world[:3, :3].T + world[:3, 3]
+    n_world = n @ np.linalg.inv(world[:3, :3])
+    # the body is a cylinder about z: below its top cap, the nearest body normal is radial
+    side = v[:, 2] < 0.5
+    radial = v[side] * [1, 1, 0]
+    radial /= np.linalg.norm(radial, axis=1, keepdims=True)
+    np.testing.assert_allclose(n_world[side], radial, atol=0.05)
+    assert "deformrt_global_normal_color" in shirt.data.color_attributes
+    bpy.ops.deformrt.resolve_layers()
+    follows = json.loads(bpy.context.scene.deformrt.last_report)["max_move"]
+    # normals pointing along the cylinder's axis: the probes run parallel to the jacket, nothing moves
+    along = shirt.data.attributes["deformrt_global_normal"]
+    up = np.tile(np.array([0, 0, 1.0]) @ world[:3, :3], (len(shirt.data.vertices), 1))
+    along.data.foreach_set("vector", up.astype(np.float32).ravel())
+    shirt.data.update()
+    bpy.ops.deformrt.resolve_layers()
+    assert json.loads(bpy.context.scene.deformrt.last_report)["max_move"][0] < 0.2 * follows[0]
+    bpy.ops.deformrt.transfer_normals(remove=True)
+    assert "deformrt_global_normal" not in shirt.data.attributes
