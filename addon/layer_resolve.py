@@ -37,6 +37,7 @@ class ResolveSummary:
     max_move: list  # per garment, scene units
     faces_hidden: list  # per garment, polygons
     seconds: dict = field(default_factory=dict)
+    inward: list = field(default_factory=list)  # garments whose faces mostly face the body
 
     def message(self) -> str:
         moved = max(self.max_move, default=0.0)
@@ -193,10 +194,17 @@ def resolve_scene(scene, progress=None, reuse_correspondence=False) -> ResolveSu
     write_s = time.perf_counter() - t1
     step(3)
     st = result.stats
+    inward = []
+    for obj, a, n in zip(garments, arrays[1:], result.global_normals, strict=True):
+        tri = a.vertices[a.triangles]
+        facing = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        out = np.einsum("ij,ij->i", facing, n[a.triangles].sum(1))
+        if (out < 0).mean() > 0.5:
+            inward.append(obj.name)
     summary = ResolveSummary(body.name, [g.name for g in garments], source, st,
                              [float(np.linalg.norm(m, axis=1).max(initial=0.0)) for m in result.moved], faces_hidden,
                              {"read_s": read_s, "resolve_s": st["total_s"], "write_s": write_s,
-                              "total_s": time.perf_counter() - t0})
+                              "total_s": time.perf_counter() - t0}, inward)
     return summary
 
 

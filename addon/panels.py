@@ -100,7 +100,10 @@ def _last_report(settings):
     if data.get("skirts"):
         lines.append("Skirts: " + ", ".join(data["skirts"]))
     if data.get("far_from_body"):
+        # the seed's known limit (4.6): cloth far from its body part is not probed
         lines.append(f"{data['far_from_body']} garment points lie farther from the body than the probe reaches")
+    for name in data.get("inward", []):
+        lines.append(f"{name}: faces point inward (Mesh > Normals > Recalculate Outside)")
     return lines
 
 

@@ -40,7 +40,7 @@ class DEFORMRT_OT_resolve_layers(bpy.types.Operator):
             "kind": "resolve", "message": summary.message(), "seconds": summary.seconds,
             "garments": summary.garments, "max_move": summary.max_move, "faces_hidden": summary.faces_hidden,
             "parts": summary.parts_source, "skirts": [summary.garments[i] for i in summary.stats["skirts"]],
-            "far_from_body": summary.stats["vertices_far_from_body"],
+            "far_from_body": summary.stats["vertices_far_from_body"], "inward": summary.inward,
             "stages_s": {k: v for k, v in summary.stats.items() if k.endswith("_s")}})
         self.report({"INFO"}, summary.message())
         return {"FINISHED"}

@@ -303,3 +303,12 @@ def test_transferred_global_normals_are_the_bodys_and_the_resolve_follows_them(e
     assert json.loads(bpy.context.scene.deformrt.last_report)["max_move"][0] < 0.2 * follows[0]
     bpy.ops.deformrt.transfer_normals(remove=True)
     assert "deformrt_global_normal" not in shirt.data.attributes
+
+
+def test_a_garment_with_inward_faces_is_named_in_the_report(extension, tubes):
+    body, (shirt, jacket) = tubes
+    shirt.data.flip_normals()
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    report = json.loads(bpy.context.scene.deformrt.last_report)
+    assert report["inward"] == ["Shirt"]
+    assert overlapping_pairs(evaluated(shirt), evaluated(jacket)) == 0
