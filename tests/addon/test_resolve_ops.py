@@ -312,3 +312,15 @@ def test_a_garment_with_inward_faces_is_named_in_the_report(extension, tubes):
     report = json.loads(bpy.context.scene.deformrt.last_report)
     assert report["inward"] == ["Shirt"]
     assert overlapping_pairs(evaluated(shirt), evaluated(jacket)) == 0
+
+
+def test_panel_summary_names_skirts_far_points_and_inward_garments(extension):
+    from types import SimpleNamespace
+
+    panels = sub(extension, "addon.panels")
+    report = {"message": "Resolved 2 garments", "skirts": ["Dress"], "far_from_body": 12, "inward": ["Shirt"]}
+    lines = panels._last_report(SimpleNamespace(last_report=json.dumps(report)))
+    assert lines[0] == "Resolved 2 garments" and "Skirts: Dress" in lines
+    assert any("12 garment points" in x for x in lines)
+    assert any(x.startswith("Shirt: faces point inward") for x in lines)
+    assert panels._last_report(SimpleNamespace(last_report="not json")) == []
