@@ -5,6 +5,7 @@ check the scene the same way and leave the same non-destructive result.
 """
 
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import bpy
@@ -117,11 +118,39 @@ def garment_parts(garment, scheme_name):
     return ids[np.argmax(w, axis=1)]
 
 
+@contextmanager
+def results_bypassed(garments):
+    """Garments evaluate as their own stack makes them (any earlier result switched off)."""
+    shown = [results.set_enabled(g, False) for g in garments]
+    try:
+        yield
+    finally:
+        for g, was in zip(garments, shown, strict=True):
+            if was:
+                results.set_enabled(g, True)
+
+
+def _trimesh(a):
+    return trimesh.Trimesh(a.vertices, a.triangles, process=False, validate=False)
+
+
+def _correspondence_only(arrays, **params):
+    """resolve_layers with every moving stage off: segments, skirts and global normals."""
+    return resolve_layers(_trimesh(arrays[0]), [_trimesh(a) for a in arrays[1:]], boundary_pass=False,
+                          push_behind=False, remove_hidden=False, **params)
+
+
+def _check_own_vertices(objs, arrays, what):
+    for obj, a in zip(objs, arrays, strict=True):
+        if len(obj.data.vertices) != len(a.vertices):
+            raise LayeringInputError(f"{obj.name}'s modifiers change its vertex count ({len(obj.data.vertices)} -> "
+                                     f"{len(a.vertices)}): {what}")
+
+
 def read_scene(scene, scheme_name):
     """Evaluated body and garments (world space) without any earlier result applied."""
     body, garments = layered_objects(scene)
-    shown = [results.set_enabled(g, False) for g in garments]
-    try:
+    with results_bypassed(garments):
         depsgraph = bpy.context.evaluated_depsgraph_get()
         arrays = [mesh_io.read_mesh(o, depsgraph) for o in (body, *garments)]
         parts, source = body_parts(body, scheme_name, arrays[0].vertices)
@@ -132,10 +161,6 @@ def read_scene(scene, scheme_name):
             # stored in object space; normals turn with the inverse transpose
             g_normals.append(None if n is None or len(n) != len(a.vertices)
                              else n @ np.linalg.inv(a.matrix_world[:3, :3]))
-    finally:
-        for g, was in zip(garments, shown, strict=True):
-            if was:
-                results.set_enabled(g, True)
     return body, garments, arrays, parts, source, g_parts, g_normals
 
 
@@ -177,8 +202,7 @@ def resolve_scene(scene, progress=None, reuse_correspondence=False) -> ResolveSu
     key = _topology_key([body, *garments], arrays)
     if reuse_correspondence and key in _correspondence_cache:
         params["correspondence"] = _correspondence_cache[key]
-    mesh = lambda a: trimesh.Trimesh(a.vertices, a.triangles, process=False, validate=False)  # noqa: E731
-    result = resolve_layers(mesh(arrays[0]), [mesh(a) for a in arrays[1:]], **params)
+    result = resolve_layers(_trimesh(arrays[0]), [_trimesh(a) for a in arrays[1:]], **params)
     if reuse_correspondence and key not in _correspondence_cache:
         _correspondence_cache.clear()
         _correspondence_cache[key] = result.correspondence
@@ -215,11 +239,7 @@ def clear_scene(scene) -> int:
     return sum(results.clear(o) for o in wearing)
 
 
-def _write_parts(obj, arrays, parts, scheme):
-    if len(obj.data.vertices) != len(arrays.vertices):
-        raise LayeringInputError(f"{obj.name}'s modifiers change its vertex count ({len(obj.data.vertices)} -> "
-                                 f"{len(arrays.vertices)}): part groups need the mesh's own vertices; apply them "
-                                 "or paint DRT_<part> groups by hand")
+def _write_parts(obj, parts, scheme):
     for group in [g for g in obj.vertex_groups if g.name.startswith(PART_GROUP_PREFIX)]:
         obj.vertex_groups.remove(group)
     present = np.unique(parts)
@@ -235,29 +255,20 @@ def auto_segment(scene) -> str:
         raise LayeringInputError("Pick a part scheme (5 or 13 parts) to segment by")
     scheme = get_scheme(settings.scheme)
     body, garments = layered_objects(scene)
-    shown = [results.set_enabled(g, False) for g in garments]
-    try:
+    with results_bypassed(garments):
         depsgraph = bpy.context.evaluated_depsgraph_get()
         arrays = [mesh_io.read_mesh(o, depsgraph) for o in (body, *garments)]
         parts, source = body_parts(body, settings.scheme, arrays[0].vertices, painted_groups=False)
         if parts is None:
             raise LayeringInputError(f"{body.name} has no rig vertex groups or stored parts to segment by: "
                                      "paint DRT_<part> groups (DRT_torso, DRT_left_arm, ...) by hand")
-        mesh = lambda a: trimesh.Trimesh(a.vertices, a.triangles, process=False, validate=False)  # noqa: E731
-        # correspondence and segmentation only: every moving stage off
-        found = resolve_layers(mesh(arrays[0]), [mesh(a) for a in arrays[1:]], body_segments=parts,
-                               scheme=scheme, boundary_pass=False, push_behind=False, remove_hidden=False)
-        for obj, a in zip(garments, arrays[1:], strict=True):
-            if len(obj.data.vertices) != len(a.vertices):
-                raise LayeringInputError(f"{obj.name}'s modifiers change its vertex count: apply them or paint "
-                                         "DRT_<part> groups by hand")
-        _write_parts(body, arrays[0], parts, scheme)
-        for obj, a, seg in zip(garments, arrays[1:], found.segments, strict=True):
-            _write_parts(obj, a, seg, scheme)
-    finally:
-        for g, was in zip(garments, shown, strict=True):
-            if was:
-                results.set_enabled(g, True)
+        found = _correspondence_only(arrays, body_segments=parts, scheme=scheme)
+        # checked for all before writing any: nothing is left half-segmented
+        _check_own_vertices([body, *garments], arrays, "part groups need the mesh's own vertices; apply them "
+                            "or paint DRT_<part> groups by hand")
+        _write_parts(body, parts, scheme)
+        for obj, seg in zip(garments, found.segments, strict=True):
+            _write_parts(obj, seg, scheme)
     skirts = [garments[i].name for i in found.stats["skirts"]]
     return (f"Segmented {body.name} and {len(garments)} garments into {scheme.name} parts from {source}"
             + (f"; skirts: {', '.join(skirts)}" if skirts else ""))
@@ -267,14 +278,9 @@ def inspect_scene(scene) -> dict:
     """Crossings, poke-through and distortion of the tagged layers as fitted and as shown now."""
     body, garments = layered_objects(scene)
     objs = [body, *garments]
-    shown = [results.set_enabled(g, False) for g in garments]
-    try:
+    with results_bypassed(garments):
         depsgraph = bpy.context.evaluated_depsgraph_get()
         fitted = [mesh_io.read_mesh(o, depsgraph) for o in objs]
-    finally:
-        for g, was in zip(garments, shown, strict=True):
-            if was:
-                results.set_enabled(g, True)
     depsgraph = bpy.context.evaluated_depsgraph_get()
     now = [mesh_io.read_mesh(o, depsgraph) for o in objs]
     before = [(a.vertices, a.triangles) for a in fitted]
@@ -308,14 +314,11 @@ def transfer_normals(scene) -> str:
     hull's) as a vector attribute the resolve then uses, plus a colour attribute to see them."""
     settings = scene.deformrt
     body, garments, arrays, parts, _, g_parts, _ = read_scene(scene, settings.scheme)
-    for obj, a in zip(garments, arrays[1:], strict=True):
-        if len(obj.data.vertices) != len(a.vertices):
-            raise LayeringInputError(f"{obj.name}'s modifiers change its vertex count: apply them first")
-    params = {"boundary_pass": False, "push_behind": False, "remove_hidden": False}
+    _check_own_vertices(garments, arrays[1:], "apply them first")
+    params = {}
     if parts is not None:
         params.update(body_segments=parts, scheme=settings.scheme, garment_segments=g_parts)
-    mesh = lambda a: trimesh.Trimesh(a.vertices, a.triangles, process=False, validate=False)  # noqa: E731
-    found = resolve_layers(mesh(arrays[0]), [mesh(a) for a in arrays[1:]], **params)
+    found = _correspondence_only(arrays, **params)
     for obj, a, n in zip(garments, arrays[1:], found.global_normals, strict=True):
         local = n @ a.matrix_world[:3, :3]  # the inverse of the read's turn
         local /= np.maximum(np.linalg.norm(local, axis=1, keepdims=True), 1e-30)

@@ -151,21 +151,26 @@ def write_point_ints(obj, name: str, values) -> None:
     attr.data.foreach_set("value", np.ascontiguousarray(values, dtype=np.int32))
 
 
-def read_point_ints(obj, name: str, depsgraph=None):
-    """The integer vertex attribute ``name`` of the evaluated mesh, or None if it has none."""
+def _read_point_attribute(obj, name, data_type, field, width, depsgraph):
     if depsgraph is None:
         depsgraph = bpy.context.evaluated_depsgraph_get()
     evaluated = obj.evaluated_get(depsgraph)
     mesh = evaluated.to_mesh()
     try:
         attr = mesh.attributes.get(name)
-        if attr is None or attr.domain != "POINT" or attr.data_type != "INT":
+        if attr is None or attr.domain != "POINT" or attr.data_type != data_type:
             return None
-        out = np.empty(len(mesh.vertices), dtype=np.int32)
-        attr.data.foreach_get("value", out)
+        out = np.empty(len(mesh.vertices) * width, dtype=np.int32 if data_type == "INT" else np.float32)
+        attr.data.foreach_get(field, out)
     finally:
         evaluated.to_mesh_clear()
-    return out.astype(np.int64)
+    return out.reshape(-1, width) if width > 1 else out
+
+
+def read_point_ints(obj, name: str, depsgraph=None):
+    """The integer vertex attribute ``name`` of the evaluated mesh, or None if it has none."""
+    out = _read_point_attribute(obj, name, "INT", "value", 1, depsgraph)
+    return None if out is None else out.astype(np.int64)
 
 
 def write_point_vectors(obj, name: str, values, color_name: str | None = None) -> None:
@@ -192,16 +197,5 @@ def write_point_vectors(obj, name: str, values, color_name: str | None = None) -
 
 def read_point_vectors(obj, name: str, depsgraph=None):
     """The vector vertex attribute ``name`` of the evaluated mesh (object space), or None."""
-    if depsgraph is None:
-        depsgraph = bpy.context.evaluated_depsgraph_get()
-    evaluated = obj.evaluated_get(depsgraph)
-    mesh = evaluated.to_mesh()
-    try:
-        attr = mesh.attributes.get(name)
-        if attr is None or attr.domain != "POINT" or attr.data_type != "FLOAT_VECTOR":
-            return None
-        out = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
-        attr.data.foreach_get("vector", out)
-    finally:
-        evaluated.to_mesh_clear()
-    return out.reshape(-1, 3).astype(np.float64)
+    out = _read_point_attribute(obj, name, "FLOAT_VECTOR", "vector", 3, depsgraph)
+    return None if out is None else out.astype(np.float64)

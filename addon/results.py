@@ -41,10 +41,11 @@ def set_enabled(obj, enabled: bool) -> bool:
     return before
 
 
-def _data_collection(scene):
-    coll = bpy.data.collections.get(DATA_COLLECTION)
+def _hidden_collection(scene, name):
+    """The named collection under the scene's, created hidden in viewport and render."""
+    coll = bpy.data.collections.get(name)
     if coll is None:
-        coll = bpy.data.collections.new(DATA_COLLECTION)
+        coll = bpy.data.collections.new(name)
         coll.hide_render = True
         coll.hide_viewport = True
     if coll.name not in scene.collection.children:
@@ -92,7 +93,7 @@ def write(scene, obj, offsets_local, hidden_faces, stats=None) -> None:
         data = bpy.data.objects.new(f"DeformRT {obj.name}", mesh)
         data.hide_render = True
         data.hide_viewport = True
-        _data_collection(scene).objects.link(data)
+        _hidden_collection(scene, DATA_COLLECTION).objects.link(data)
     _fill_data_mesh(data.data, offsets_local, hidden_faces)
     if stats:
         data["deformrt_stats"] = stats
@@ -146,13 +147,7 @@ def bake(scene, objects, depsgraph) -> list:
     the "DeformRT Baked" collection, each keeping its role, layer, materials and placement;
     an earlier bake of the same object is replaced. The collection starts hidden (in
     viewport and render) so the scene does not show everything twice; it is for export."""
-    coll = bpy.data.collections.get(BAKED_COLLECTION)
-    if coll is None:
-        coll = bpy.data.collections.new(BAKED_COLLECTION)
-        coll.hide_viewport = True
-        coll.hide_render = True
-    if coll.name not in scene.collection.children:
-        scene.collection.children.link(coll)
+    coll = _hidden_collection(scene, BAKED_COLLECTION)
     baked = []
     for obj in objects:
         name = f"{obj.name} (baked)"

@@ -12,6 +12,15 @@ def _fail(op, exc):
     return {"CANCELLED"}
 
 
+class _NeedsGarments:
+    @classmethod
+    def poll(cls, context):
+        if context.scene is None or not scene_roles.garments(context.scene):
+            cls.poll_message_set("Tag a body and garments first")
+            return False
+        return True
+
+
 class DEFORMRT_OT_resolve_layers(bpy.types.Operator):
     """Move lower garments behind higher ones and hide what still pokes through (non-destructive:
     a DeformRT modifier on each garment; its mesh is not changed)"""
@@ -71,7 +80,7 @@ class DEFORMRT_OT_auto_segment(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class DEFORMRT_OT_transfer_normals(bpy.types.Operator):
+class DEFORMRT_OT_transfer_normals(_NeedsGarments, bpy.types.Operator):
     """Store each garment's global normals (from the body under it) as a vector attribute you
     can see and edit; the resolve follows the stored ones until they are removed"""
 
@@ -81,13 +90,6 @@ class DEFORMRT_OT_transfer_normals(bpy.types.Operator):
 
     remove: bpy.props.BoolProperty(name="Remove", description="Remove stored global normals instead",
                                    default=False)
-
-    @classmethod
-    def poll(cls, context):
-        if context.scene is None or not scene_roles.garments(context.scene):
-            cls.poll_message_set("Tag a body and garments first")
-            return False
-        return True
 
     def execute(self, context):
         if self.remove:
@@ -116,20 +118,13 @@ class DEFORMRT_OT_clear_results(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class DEFORMRT_OT_bake_results(bpy.types.Operator):
+class DEFORMRT_OT_bake_results(_NeedsGarments, bpy.types.Operator):
     """Write what the body and garments render now as plain meshes into the "DeformRT Baked"
     collection, for export (glTF, FBX, OBJ, Alembic)"""
 
     bl_idname = "deformrt.bake_results"
     bl_label = "Bake Meshes"
     bl_options = {"REGISTER", "UNDO"}
-
-    @classmethod
-    def poll(cls, context):
-        if context.scene is None or not scene_roles.garments(context.scene):
-            cls.poll_message_set("Tag a body and garments first")
-            return False
-        return True
 
     def execute(self, context):
         scene = context.scene
@@ -145,20 +140,13 @@ class DEFORMRT_OT_bake_results(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class DEFORMRT_OT_inspect_layers(bpy.types.Operator):
+class DEFORMRT_OT_inspect_layers(_NeedsGarments, bpy.types.Operator):
     """Measure the layers as fitted and as shown now: crossing edges, poke-through over 16
     views, how far the resolve moved the garments and how much it stretched them"""
 
     bl_idname = "deformrt.inspect_layers"
     bl_label = "Inspect"
     bl_options = {"REGISTER"}
-
-    @classmethod
-    def poll(cls, context):
-        if context.scene is None or not scene_roles.garments(context.scene):
-            cls.poll_message_set("Tag a body and garments first")
-            return False
-        return True
 
     def execute(self, context):
         try:
@@ -170,7 +158,7 @@ class DEFORMRT_OT_inspect_layers(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class DEFORMRT_OT_bake_frames(bpy.types.Operator):
+class DEFORMRT_OT_bake_frames(_NeedsGarments, bpy.types.Operator):
     """Resolve every frame of a range and write the garments (and body) as an Alembic mesh
     cache, so a render farm or another tool needs no DeformRT"""
 
@@ -182,13 +170,6 @@ class DEFORMRT_OT_bake_frames(bpy.types.Operator):
     frame_end: bpy.props.IntProperty(name="End", default=250, min=0)
     filepath: bpy.props.StringProperty(name="File", subtype="FILE_PATH", default="//deformrt_layers.abc",
                                        options={"PATH_SUPPORTS_BLEND_RELATIVE"})
-
-    @classmethod
-    def poll(cls, context):
-        if context.scene is None or not scene_roles.garments(context.scene):
-            cls.poll_message_set("Tag a body and garments first")
-            return False
-        return True
 
     def invoke(self, context, _event):
         self.frame_start, self.frame_end = context.scene.frame_start, context.scene.frame_end
