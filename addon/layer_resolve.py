@@ -39,6 +39,7 @@ class ResolveSummary:
     faces_hidden: list  # per garment, polygons
     seconds: dict = field(default_factory=dict)
     inward: list = field(default_factory=list)  # garments whose faces mostly face the body
+    probe_by_part: dict = field(default_factory=dict)  # l_s the resolve used, scene units
 
     def message(self) -> str:
         moved = max(self.max_move, default=0.0)
@@ -164,6 +165,20 @@ def read_scene(scene, scheme_name):
     return body, garments, arrays, parts, source, g_parts, g_normals
 
 
+def probe_distances(settings, has_parts):
+    """The probe distance to pass to core: None (each part's radius), one distance, or one per
+    part with NaN where the part keeps its default (the panel's per-part overrides)."""
+    base = settings.probe_distance if settings.probe_distance > 0 else np.nan
+    if settings.scheme == "NONE" or not has_parts or not len(settings.part_probes):
+        return None if np.isnan(base) else float(base)
+    parts = get_scheme(settings.scheme).parts
+    out = np.full(len(parts), base)
+    for item in settings.part_probes:
+        if item.part in parts:
+            out[parts.index(item.part)] = item.distance
+    return out
+
+
 def _topology_key(objs, arrays):
     return tuple((o.name, len(a.vertices), len(a.triangles)) for o, a in zip(objs, arrays, strict=True))
 
@@ -172,27 +187,39 @@ def forget_correspondence():
     _correspondence_cache.clear()
 
 
-def resolve_scene(scene, progress=None, reuse_correspondence=False) -> ResolveSummary:
-    """Resolve the scene's tagged garments and show the result on them (non-destructively).
+@dataclass
+class ResolveJob:
+    """What a resolve read from the scene: core can run on it without touching bpy."""
 
-    With ``reuse_correspondence`` (playback, frame bakes) the garment-to-body correspondence
-    of the first such call is kept and reused while the meshes keep their topology."""
+    body: object
+    garments: list
+    arrays: list
+    params: dict
+    source: str
+    key: tuple
+    reuse_correspondence: bool
+    read_s: float
+    t0: float
+    scheme: str
+    parts_known: bool
+
+
+def prepare_resolve(scene, reuse_correspondence=False) -> ResolveJob:
+    """Read and check the scene (main thread)."""
     settings = scene.deformrt
     t0 = time.perf_counter()
-    step = progress or (lambda _k: None)
     body, garments, arrays, parts, source, g_parts, g_normals = read_scene(scene, settings.scheme)
     if len(garments) < 2:
         raise LayeringInputError(f"Only one garment ({garments[0].name}): nothing is worn over it, nothing to resolve")
     for obj, a in zip([body, *garments], arrays, strict=True):
         if not len(a.triangles):
             raise LayeringInputError(f"{obj.name} has no faces after its modifiers")
-    read_s = time.perf_counter() - t0
-    step(1)
     params = {"boundary_pass": settings.boundary_pass, "remove_hidden": settings.remove_hidden}
     if settings.offset > 0:
         params["offset"] = settings.offset
-    if settings.probe_distance > 0:
-        params["probe_distance"] = settings.probe_distance
+    probe = probe_distances(settings, parts is not None)
+    if probe is not None:
+        params["probe_distance"] = probe
     if parts is not None:
         params.update(body_segments=parts, scheme=settings.scheme)
         if any(p is not None for p in g_parts):
@@ -202,11 +229,21 @@ def resolve_scene(scene, progress=None, reuse_correspondence=False) -> ResolveSu
     key = _topology_key([body, *garments], arrays)
     if reuse_correspondence and key in _correspondence_cache:
         params["correspondence"] = _correspondence_cache[key]
-    result = resolve_layers(_trimesh(arrays[0]), [_trimesh(a) for a in arrays[1:]], **params)
-    if reuse_correspondence and key not in _correspondence_cache:
+    return ResolveJob(body, garments, arrays, params, source, key, reuse_correspondence,
+                      time.perf_counter() - t0, t0, settings.scheme, parts is not None)
+
+
+def compute_resolve(job: ResolveJob):
+    """The core resolve: no bpy, safe to run on a worker thread."""
+    return resolve_layers(_trimesh(job.arrays[0]), [_trimesh(a) for a in job.arrays[1:]], **job.params)
+
+
+def finish_resolve(scene, job: ResolveJob, result) -> ResolveSummary:
+    """Show the result on the garments, non-destructively (main thread)."""
+    if job.reuse_correspondence and job.key not in _correspondence_cache:
         _correspondence_cache.clear()
-        _correspondence_cache[key] = result.correspondence
-    step(2)
+        _correspondence_cache[job.key] = result.correspondence
+    garments, arrays = job.garments, job.arrays
     t1 = time.perf_counter()
     faces_hidden = []
     for obj, a, moved, removed in zip(garments, arrays[1:], result.moved, result.removed_faces, strict=True):
@@ -216,7 +253,6 @@ def resolve_scene(scene, progress=None, reuse_correspondence=False) -> ResolveSu
         faces_hidden.append(int(hidden.sum()))
         results.write(scene, obj, moved @ to_local.T, hidden)
     write_s = time.perf_counter() - t1
-    step(3)
     st = result.stats
     inward = []
     for obj, a, n in zip(garments, arrays[1:], result.global_normals, strict=True):
@@ -225,10 +261,27 @@ def resolve_scene(scene, progress=None, reuse_correspondence=False) -> ResolveSu
         out = np.einsum("ij,ij->i", facing, n[a.triangles].sum(1))
         if (out < 0).mean() > 0.5:
             inward.append(obj.name)
-    summary = ResolveSummary(body.name, [g.name for g in garments], source, st,
+    summary = ResolveSummary(job.body.name, [g.name for g in garments], job.source, st,
                              [float(np.linalg.norm(m, axis=1).max(initial=0.0)) for m in result.moved], faces_hidden,
-                             {"read_s": read_s, "resolve_s": st["total_s"], "write_s": write_s,
-                              "total_s": time.perf_counter() - t0}, inward)
+                             {"read_s": job.read_s, "resolve_s": st["total_s"], "write_s": write_s,
+                              "total_s": time.perf_counter() - job.t0}, inward)
+    if job.parts_known:
+        summary.probe_by_part = dict(zip(get_scheme(job.scheme).parts, st["probe_distance"], strict=True))
+    return summary
+
+
+def resolve_scene(scene, progress=None, reuse_correspondence=False) -> ResolveSummary:
+    """Resolve the scene's tagged garments and show the result on them (non-destructively).
+
+    With ``reuse_correspondence`` (playback, frame bakes) the garment-to-body correspondence
+    of the first such call is kept and reused while the meshes keep their topology."""
+    step = progress or (lambda _k: None)
+    job = prepare_resolve(scene, reuse_correspondence)
+    step(1)
+    result = compute_resolve(job)
+    step(2)
+    summary = finish_resolve(scene, job, result)
+    step(3)
     return summary
 
 
@@ -286,10 +339,14 @@ def inspect_scene(scene) -> dict:
     before = [(a.vertices, a.triangles) for a in fitted]
     after = [(a.vertices, a.triangles) for a in now]
     cameras = metrics.camera_ring(*metrics.layer_bounds(before), views=8, resolution=96)
+    crossing_after = metrics.layer_crossings(after)
+    names = [o.name for o in objs]
     report = {
         "kind": "inspect",
         "crossings_before": int(np.triu(metrics.layer_crossings(before)).sum()),
-        "crossings_after": int(np.triu(metrics.layer_crossings(after)).sum()),
+        "crossings_after": int(np.triu(crossing_after).sum()),
+        "still_crossing": [[names[i], names[j], int(crossing_after[i, j])]
+                           for i, j in zip(*np.nonzero(np.triu(crossing_after)), strict=True)],
         "poke_through_before": metrics.poke_through(before, cameras=cameras)[0],
         "poke_through_after": metrics.poke_through(after, cameras=cameras)[0],
         "max_move": 0.0,

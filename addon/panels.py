@@ -70,6 +70,14 @@ class DEFORMRT_PT_resolve(bpy.types.Panel):
         row.operator("deformrt.transfer_normals", text="", icon="X").remove = True
         layout.prop(settings, "offset")
         layout.prop(settings, "probe_distance")
+        if settings.scheme != "NONE":
+            col = layout.column(align=True)
+            for k, item in enumerate(settings.part_probes):
+                row = col.row(align=True)
+                row.prop(item, "part", text="")
+                row.prop(item, "distance", text="")
+                row.operator("deformrt.remove_part_probe", text="", icon="X").index = k
+            col.operator("deformrt.add_part_probe", text="Probe Distance per Part", icon="ADD")
         layout.prop(settings, "boundary_pass")
         layout.prop(settings, "remove_hidden")
         col = layout.column(align=True)
@@ -102,6 +110,12 @@ def _last_report(settings):
     if data.get("far_from_body"):
         # the seed's known limit (4.6): cloth far from its body part is not probed
         lines.append(f"{data['far_from_body']} garment points lie farther from the body than the probe reaches")
+    reach = data.get("probe_by_part") or {}
+    if reach:
+        lines.append("Probe reach: " + ", ".join(f"{p.replace('_', ' ')} {100 * d:.0f} cm" for p, d in reach.items()))
+    for a, b, n in data.get("still_crossing", []):
+        # the seed's known limits (4.6): what the method cannot untangle
+        lines.append(f"{a} and {b} still cross at {n} edges: interlocking, self-intersecting or far from the body?")
     for name in data.get("inward", []):
         lines.append(f"{name}: faces point inward (Mesh > Normals > Recalculate Outside)")
     return lines

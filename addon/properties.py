@@ -1,7 +1,17 @@
 """Per-object and per-scene DeformRT settings (the names other tools rely on: see NOTES.md)."""
 
 import bpy
-from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty, StringProperty
+from bpy.props import (
+    BoolProperty,
+    CollectionProperty,
+    EnumProperty,
+    FloatProperty,
+    IntProperty,
+    PointerProperty,
+    StringProperty,
+)
+
+from ..core.segmentation import SCHEMES
 
 ROLE_ITEMS = (
     ("NONE", "None", "Not part of garment layering"),
@@ -26,6 +36,23 @@ SCHEME_ITEMS = (
     ("S13", "13 Parts", "Upper and lower limbs, hands and feet apart (the seed's scheme for posed figures)"),
     ("NONE", "Whole Body", "No body parts: every garment point meets every higher layer near it"),
 )
+
+
+PART_ITEMS = tuple((p, p.replace("_", " ").title(), f"The {p.replace('_', ' ')} part")
+                   for p in dict.fromkeys(p for scheme in SCHEMES.values() for p in scheme.parts))
+
+
+class DeformRTPartProbe(bpy.types.PropertyGroup):
+    part: EnumProperty(name="Part", items=PART_ITEMS, description="Body part whose probe distance this sets")
+    distance: FloatProperty(
+        name="Probe Distance",
+        description="How far probe rays of this part look for a higher layer (l_s)",
+        default=0.05,
+        min=0.0,
+        soft_max=0.5,
+        subtype="DISTANCE",
+        unit="LENGTH",
+    )
 
 
 class DeformRTSceneProperties(bpy.types.PropertyGroup):
@@ -59,6 +86,7 @@ class DeformRTSceneProperties(bpy.types.PropertyGroup):
         subtype="DISTANCE",
         unit="LENGTH",
     )
+    part_probes: CollectionProperty(type=DeformRTPartProbe, name="Per-Part Probe Distances")
     boundary_pass: BoolProperty(
         name="Tuck Under Hems",
         description="Smoothly pull lower layers in under higher layers' hems and cuffs (seed Fig. 4.10)",
@@ -76,7 +104,7 @@ class DeformRTSceneProperties(bpy.types.PropertyGroup):
     )
 
 
-CLASSES = (DeformRTObjectProperties, DeformRTSceneProperties)
+CLASSES = (DeformRTObjectProperties, DeformRTPartProbe, DeformRTSceneProperties)
 
 
 def attach():

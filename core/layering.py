@@ -280,7 +280,8 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     params:
         offset (d, scene units): gap left behind a higher layer; default 0.1% of the
             body's bounding-box diagonal (about 2 mm on a 1.8 m figure).
-        probe_distance (l_s): scalar, or one value per segment id. Default: with
+        probe_distance (l_s): scalar, or one value per segment id (NaN: that part's
+            default). Default: with
             body_segments, each part's median local radius (half the chord through the
             body); without, the local radius at each garment vertex's nearest body point.
         scheme: "S5", "S13" or a segmentation.Scheme naming the body_segments ids. With it, a
@@ -355,9 +356,14 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     t0 = time.perf_counter()
     body_normals = vertex_normals(bv, bf)
     probe = params.get("probe_distance")
+    given = None if probe is None else np.broadcast_to(np.asarray(probe, dtype=np.float64), (n_seg,)).copy()
+    if given is not None and (np.isinf(given).any() or (given < 0).any()):
+        raise ValueError("probe_distance must be finite and >= 0 (NaN for a part's default)")
+    if given is not None and np.isnan(given).all():
+        given = None
     radius = None
     body_scene = RayScene(bv, bf)
-    if probe is None:
+    if given is None or np.isnan(given).any():
         radius = local_radius(bv, bf, body_normals, scene=body_scene)
         l_seg = np.array([np.median(radius[body_seg == s]) if (body_seg == s).any() else np.nan
                           for s in range(n_seg)])
@@ -365,13 +371,11 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         for s in np.flatnonzero(np.isnan(l_seg)):
             linked = l_seg[links[s]]
             l_seg[s] = np.nanmax(linked) if np.isfinite(linked).any() else np.median(radius)
-    else:
-        l_seg = np.broadcast_to(np.asarray(probe, dtype=np.float64), (n_seg,)).copy()
-        if not np.isfinite(l_seg).all() or (l_seg < 0).any():
-            raise ValueError("probe_distance must be finite and >= 0")
+    if given is not None:
+        l_seg = np.where(np.isnan(given), l_seg, given) if radius is not None else given
     # Without segments (one part) the probe distance follows the body locally: each garment
     # vertex takes the body's radius at its nearest point, so a sleeve probe stops inside the arm.
-    local_probe = radius is not None and body_segments is None
+    local_probe = given is None and body_segments is None
     margin = float(params.get("segment_margin", 0.01 * diag))
     if not np.isfinite(margin) or margin < 0:
         raise ValueError(f"segment_margin must be a finite distance >= 0, got {margin}")

@@ -1,6 +1,8 @@
 """Resolve, clear and bake the layered garments of the scene."""
 
 import json
+import threading
+import time
 
 import bpy
 
@@ -45,13 +47,108 @@ class DEFORMRT_OT_resolve_layers(bpy.types.Operator):
             return _fail(self, exc)
         finally:
             wm.progress_end()
+        return self._done(context, summary)
+
+    def invoke(self, context, _event):
+        # In the UI the core resolve runs on a worker thread so Blender stays responsive and
+        # Esc can cancel; headless callers get execute() and a blocking call.
+        if context.window is None:
+            return self.execute(context)
+        try:
+            self._job = layer_resolve.prepare_resolve(context.scene)
+        except (ValueError, RuntimeError) as exc:
+            return _fail(self, exc)
+        self._outcome = {}
+        self._thread = threading.Thread(target=self._work, daemon=True)
+        self._thread.start()
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.1, window=context.window)
+        wm.progress_begin(0, 100)
+        wm.modal_handler_add(self)
+        context.workspace.status_text_set("DeformRT: resolving layers (Esc to cancel)")
+        return {"RUNNING_MODAL"}
+
+    def _work(self):
+        try:
+            self._outcome["result"] = layer_resolve.compute_resolve(self._job)
+        except (ValueError, RuntimeError) as exc:
+            self._outcome["error"] = exc
+
+    def _stop(self, context):
+        wm = context.window_manager
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        context.workspace.status_text_set(None)
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            self._stop(context)
+            # the worker's result is dropped when it ends: nothing was written yet
+            self.report({"WARNING"}, "Resolve cancelled: the garments are unchanged")
+            return {"CANCELLED"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        if self._thread.is_alive():
+            context.window_manager.progress_update(int(time.perf_counter() - self._job.t0) % 100)
+            return {"RUNNING_MODAL"}
+        self._stop(context)
+        if "error" in self._outcome:
+            return _fail(self, self._outcome["error"])
+        try:
+            summary = layer_resolve.finish_resolve(context.scene, self._job, self._outcome["result"])
+        except ReferenceError:
+            self.report({"ERROR"}, "A garment was deleted while resolving: nothing written")
+            return {"CANCELLED"}
+        return self._done(context, summary)
+
+    def _done(self, context, summary):
         context.scene.deformrt.last_report = json.dumps({
             "kind": "resolve", "message": summary.message(), "seconds": summary.seconds,
             "garments": summary.garments, "max_move": summary.max_move, "faces_hidden": summary.faces_hidden,
             "parts": summary.parts_source, "skirts": [summary.garments[i] for i in summary.stats["skirts"]],
             "far_from_body": summary.stats["vertices_far_from_body"], "inward": summary.inward,
+            "probe_by_part": summary.probe_by_part,
             "stages_s": {k: v for k, v in summary.stats.items() if k.endswith("_s")}})
         self.report({"INFO"}, summary.message())
+        return {"FINISHED"}
+
+
+class DEFORMRT_OT_add_part_probe(bpy.types.Operator):
+    """Set how far one body part's probe rays look (starts from what the last resolve used)"""
+
+    bl_idname = "deformrt.add_part_probe"
+    bl_label = "Add Part Probe Distance"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        settings = context.scene.deformrt
+        try:
+            used = json.loads(settings.last_report).get("probe_by_part", {}) if settings.last_report else {}
+        except ValueError:
+            used = {}
+        taken = {p.part for p in settings.part_probes}
+        free = [p for p in (used or {"torso": None}) if p not in taken] or ["torso"]
+        item = settings.part_probes.add()
+        item.part = free[0]
+        if used.get(free[0]):
+            item.distance = used[free[0]]
+        return {"FINISHED"}
+
+
+class DEFORMRT_OT_remove_part_probe(bpy.types.Operator):
+    """Let this part's probe distance follow the body again"""
+
+    bl_idname = "deformrt.remove_part_probe"
+    bl_label = "Remove Part Probe Distance"
+    bl_options = {"REGISTER", "UNDO"}
+
+    index: bpy.props.IntProperty(default=0, min=0)
+
+    def execute(self, context):
+        probes = context.scene.deformrt.part_probes
+        if self.index >= len(probes):
+            return {"CANCELLED"}
+        probes.remove(self.index)
         return {"FINISHED"}
 
 
@@ -221,5 +318,6 @@ class DEFORMRT_OT_bake_frames(_NeedsGarments, bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = (DEFORMRT_OT_resolve_layers, DEFORMRT_OT_auto_segment, DEFORMRT_OT_transfer_normals,
+CLASSES = (DEFORMRT_OT_resolve_layers, DEFORMRT_OT_add_part_probe, DEFORMRT_OT_remove_part_probe,
+           DEFORMRT_OT_auto_segment, DEFORMRT_OT_transfer_normals,
            DEFORMRT_OT_clear_results, DEFORMRT_OT_bake_results, DEFORMRT_OT_bake_frames, DEFORMRT_OT_inspect_layers)

@@ -194,6 +194,46 @@ def test_painted_part_groups_are_honoured(extension, tubes):
     assert overlapping_pairs(evaluated(shirt), evaluated(jacket)) == 0
 
 
+def test_a_parts_probe_distance_can_be_set_in_the_panel(extension, tubes):
+    body, (shirt, jacket) = tubes
+    io = sub(extension, "addon.mesh_io")
+    for obj in (body, shirt, jacket):
+        io.write_vertex_groups(obj, ["DRT_torso"], np.ones((len(obj.data.vertices), 1)))
+    settings = bpy.context.scene.deformrt
+    bpy.ops.deformrt.resolve_layers()
+    default = json.loads(settings.last_report)
+    reach = default["probe_by_part"]["torso"]
+    assert 0.0 < reach < 1.0 and default["max_move"][0] > 0.005
+    # a new override starts from what the resolve used for that part
+    assert bpy.ops.deformrt.add_part_probe() == {"FINISHED"}
+    item = settings.part_probes[0]
+    assert item.part == "torso" and item.distance == pytest.approx(reach, rel=1e-6)
+    # the torso's probes reach nothing: only what lies within the offset d of a higher layer moves
+    item.distance, settings.offset = 0.0, 0.001
+    bpy.ops.deformrt.resolve_layers()
+    report = json.loads(settings.last_report)
+    assert report["probe_by_part"]["torso"] == 0.0 and report["max_move"][0] <= 2 * 0.001 + 1e-6
+    settings.offset = 0.0
+    assert bpy.ops.deformrt.remove_part_probe(index=0) == {"FINISHED"} and not len(settings.part_probes)
+    bpy.ops.deformrt.resolve_layers()
+    assert json.loads(settings.last_report)["max_move"] == pytest.approx(default["max_move"])
+
+
+def test_a_resolve_dropped_before_it_is_written_changes_nothing(extension, tubes):
+    # what Esc does to the modal resolve: the core result is computed but never written
+    body, garments = tubes
+    lr = sub(extension, "addon.layer_resolve")
+    own = [mesh_state(o) for o in (body, *garments)]
+    job = lr.prepare_resolve(bpy.context.scene)
+    result = lr.compute_resolve(job)
+    assert max(np.abs(m).max() for m in result.moved) > 0
+    for obj, (co, polys, mods) in zip((body, *garments), own, strict=True):
+        now = mesh_state(obj)
+        np.testing.assert_array_equal(now[0], co)
+        assert now[1:] == (polys, mods)
+    assert "DeformRT Data" not in bpy.data.collections
+
+
 def test_auto_segment_writes_the_figures_parts_and_finds_the_dresses(extension, clean_scene):
     dressed = sub(extension, "sample_scenes.dressed")
     body, _, garments = dressed.fig_4_13()
@@ -262,11 +302,14 @@ def test_inspect_measures_before_and_after(extension, tubes):
     bpy.ops.deformrt.inspect_layers()
     fitted = json.loads(bpy.context.scene.deformrt.last_report)
     assert fitted["crossings_before"] == fitted["crossings_after"] > 0 and fitted["max_move"] == 0.0
+    # the pair that still crosses is named (the body crosses nothing)
+    assert fitted["still_crossing"] == [[shirt.name, jacket.name, fitted["crossings_after"]]]
     bpy.ops.deformrt.resolve_layers()
     moved = json.loads(bpy.context.scene.deformrt.last_report)["max_move"]
     bpy.ops.deformrt.inspect_layers()
     report = json.loads(bpy.context.scene.deformrt.last_report)
     assert report["crossings_after"] == 0 and report["poke_through_after"] < report["poke_through_before"]
+    assert report["still_crossing"] == []
     # the move it measures from the shown geometry is the move the resolve reported
     assert report["max_move"] == pytest.approx(max(moved), rel=1e-4)
 
@@ -318,9 +361,12 @@ def test_panel_summary_names_skirts_far_points_and_inward_garments(extension):
     from types import SimpleNamespace
 
     panels = sub(extension, "addon.panels")
-    report = {"message": "Resolved 2 garments", "skirts": ["Dress"], "far_from_body": 12, "inward": ["Shirt"]}
+    report = {"message": "Resolved 2 garments", "skirts": ["Dress"], "far_from_body": 12, "inward": ["Shirt"],
+              "probe_by_part": {"torso": 0.14, "left_arm": 0.04}, "still_crossing": [["Shirt", "Jacket", 7]]}
     lines = panels._last_report(SimpleNamespace(last_report=json.dumps(report)))
     assert lines[0] == "Resolved 2 garments" and "Skirts: Dress" in lines
     assert any("12 garment points" in x for x in lines)
     assert any(x.startswith("Shirt: faces point inward") for x in lines)
+    assert "Probe reach: torso 14 cm, left arm 4 cm" in lines
+    assert any(x.startswith("Shirt and Jacket still cross at 7 edges") for x in lines)
     assert panels._last_report(SimpleNamespace(last_report="not json")) == []

@@ -251,3 +251,19 @@ def test_given_skirt_segments_get_the_skirt_treatment():
     assert again.stats["skirts"] == found.stats["skirts"] == [0]
     np.testing.assert_allclose(again.global_normals[0], found.global_normals[0])
     np.testing.assert_allclose(again.moved[0], found.moved[0])
+
+
+def test_one_part_probe_distance_overrides_only_that_part():
+    body, ids = lower_body()
+    rng = np.random.default_rng(4)
+    skirts = [mesh(*tube(r, 0.2, 0.62 - 0.003 * k, n_around=32, n_along=12, noise=0.004, rng=rng))
+              for k, r in enumerate((0.18, 0.184))]
+    default = resolve_layers(body, skirts, body_segments=ids, scheme="S5").stats["probe_distance"]
+    given = np.full(len(default), np.nan)
+    given[3] = 0.123
+    mixed = resolve_layers(body, skirts, body_segments=ids, scheme="S5", probe_distance=given).stats["probe_distance"]
+    want = np.array(default)
+    want[3] = 0.123
+    np.testing.assert_allclose(mixed, want)
+    with pytest.raises(ValueError, match="probe_distance"):
+        resolve_layers(body, skirts, body_segments=ids, scheme="S5", probe_distance=np.inf)
