@@ -103,14 +103,16 @@ class Neighbours:
         scale = 2.0 * dim / (np.asarray(lam) * n0)
         return s * (scale if np.ndim(scale) == 0 or phi.ndim == 1 else scale[:, None])
 
-    def laplacian_matrix(self, n0, lam, column_of=None, dim=2):
+    def laplacian_matrix(self, n0, lam, column_of=None, coefficient=None, dim=2):
         """The Laplacian as a sparse (n_rows, n_unknowns) matrix. ``column_of`` maps every
-        point to the unknown it takes its value from (a ghost to its source), default itself."""
+        point to the unknown it takes its value from (a ghost to its source), default itself;
+        ``coefficient`` scales that value per point (-1 for a mirrored velocity component)."""
         col = np.arange(self.n_points) if column_of is None else np.asarray(column_of)
         scale = 2.0 * dim / (np.broadcast_to(np.asarray(lam, float), (self.n_rows,)) * n0)
         vals = self.w * scale[self.i]
         n_unknowns = int(col.max()) + 1
-        off = sp.coo_matrix((vals, (self.i, col[self.j])), shape=(self.n_rows, n_unknowns))
+        coef = vals if coefficient is None else vals * np.asarray(coefficient, float)[self.j]
+        off = sp.coo_matrix((coef, (self.i, col[self.j])), shape=(self.n_rows, n_unknowns))
         diag = np.bincount(self.i, weights=vals, minlength=self.n_rows)
         d = sp.coo_matrix((-diag, (np.arange(self.n_rows), np.arange(self.n_rows))), shape=(self.n_rows, n_unknowns))
         return (off + d).tocsr()

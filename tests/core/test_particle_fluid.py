@@ -1,0 +1,141 @@
+"""The particle-gridless fluid against flows with known answers: plane Poiseuille (steady and
+start-up series), Couette, a decaying Taylor-Green vortex; conservation; stiff and bad input."""
+
+import numpy as np
+import pytest
+
+from core.particle_fluid import Box, FluidBlowUp, LatticeFluid
+
+H, G, NU = 1.0, 1.0, 0.1
+
+
+def channel(ny, **kw):
+    # periodic in x (four particles wide), no-slip walls at y = 0 and y = H
+    return LatticeFluid(Box(4 * H / ny, H, periodic=(True, False), **kw.pop("box", {})), nx=4, ny=ny,
+                        viscosity=NU, density=1.0, **kw)
+
+
+def poiseuille(y):
+    return G / (2 * NU) * y * (H - y)
+
+
+def test_poiseuille_steady_profile_converges_at_second_order():
+    errs = []
+    for ny in (16, 32):
+        f = channel(ny, body_force=(G, 0.0))
+        for _ in range(200):
+            f.step(0.05)
+        exact = poiseuille(f.points[:, 1])
+        errs.append(np.abs(f.u[:, 0] - exact).max() / exact.max())
+        assert np.abs(f.u[:, 1]).max() < 1e-10
+    assert errs[1] < 2e-3
+    assert errs[0] / errs[1] > 3.5
+
+
+def test_poiseuille_start_up_follows_the_series_solution():
+    f = channel(32, body_force=(G, 0.0))
+    t_end, dt = 0.1 * H * H / NU, 0.002
+    for _ in range(int(round(t_end / dt))):
+        f.step(dt)
+    y = f.points[:, 1]
+    n = np.arange(0, 200)[:, None]
+    m = 2 * n + 1
+    series = (4 * G * H * H / (NU * np.pi**3 * m**3) * np.sin(m * np.pi * y / H)
+              * np.exp(-(m**2) * np.pi**2 * NU * t_end / H**2)).sum(0)
+    exact = poiseuille(y) - series
+    assert np.abs(f.u[:, 0] - exact).max() < 0.01 * exact.max()
+
+
+def test_couette_flow_under_a_moving_lid_is_linear():
+    f = channel(16, box={"wall_velocity": {"top": 0.3}})
+    for _ in range(200):
+        f.step(0.05)
+    np.testing.assert_allclose(f.u[:, 0], 0.3 * f.points[:, 1] / H, atol=1e-4 * 0.3)
+    assert np.abs(f.u[:, 1]).max() < 1e-12
+
+
+def taylor_green(n, nu=0.01):
+    f = LatticeFluid(Box(1.0, 1.0, periodic=(True, True)), nx=n, viscosity=nu, density=1.0)
+    k = 2 * np.pi
+    x, y = f.points.T
+    shape = np.column_stack([-np.cos(k * x) * np.sin(k * y), np.sin(k * x) * np.cos(k * y)])
+    f.u = shape.copy()
+    return f, shape, k
+
+
+def test_taylor_green_vortex_decays_at_the_viscous_rate():
+    f, shape, k = taylor_green(32)
+    t_end = 0.5
+    for _ in range(50):
+        f.step(t_end / 50)
+    amp = (f.u * shape).sum() / (shape * shape).sum()
+    assert amp == pytest.approx(np.exp(-2 * 0.01 * k * k * t_end), rel=5e-3)
+    assert np.abs(f.u - amp * shape).max() < 2e-3 * amp
+    # divergence free to the operators' accuracy: small against |grad u| ~ k
+    assert np.abs(f.divergence()).max() < 5e-3 * k * amp
+
+
+def test_krylov_pressure_agrees_with_the_direct_solve():
+    a, _, _ = taylor_green(16)
+    b, _, _ = taylor_green(16)
+    b.pressure_solver = "krylov"
+    for _ in range(5):
+        a.step(0.01)
+        b.step(0.01)
+    np.testing.assert_allclose(b.u, a.u, atol=1e-8)
+
+
+def test_momentum_is_kept_in_a_periodic_box():
+    f, shape, _ = taylor_green(24)
+    f.u = shape + [0.2, -0.1]
+    before = f.momentum()
+    for _ in range(20):
+        f.step(0.01)
+    assert np.abs(f.momentum() - before).max() < 1e-3 * np.abs(before).max()
+
+
+def test_a_closed_box_only_loses_energy():
+    f = LatticeFluid(Box(1.0, 1.0), nx=24, viscosity=1e-3, density=1.0)
+    x, y = f.points.T
+    # a vortex that vanishes at the walls
+    f.u = np.column_stack([np.sin(np.pi * x) ** 2 * np.sin(2 * np.pi * y), -np.sin(2 * np.pi * x) * np.sin(np.pi * y) ** 2])
+    energy = [f.kinetic_energy()]
+    for _ in range(30):
+        f.step(0.02)
+        energy.append(f.kinetic_energy())
+    assert (np.diff(energy) <= 1e-12).all()
+    assert energy[-1] > 0.5 * energy[0]
+
+
+def test_stiff_viscosity_and_huge_steps_stay_stable():
+    f, _, _ = taylor_green(16, nu=100.0)
+    f.step(10.0)
+    assert np.isfinite(f.u).all() and np.abs(f.u).max() < 1e-5
+    # inviscid: a step of many Courant times is split, and the vortex survives it
+    g, shape, _ = taylor_green(16, nu=0.0)
+    assert g.step(1.0) >= 1.0 / g.h
+    assert np.abs(g.u - shape).max() < 0.05
+    g, _, _ = taylor_green(16)
+    before = g.u.copy()
+    assert g.step(0.0) == 0
+    np.testing.assert_array_equal(g.u, before)
+
+
+def test_a_blow_up_is_reported_not_returned():
+    f, _, _ = taylor_green(8)
+    f.u[3, 0] = np.nan
+    with pytest.raises(FluidBlowUp, match="non-finite"):
+        f.step(0.01)
+
+
+@pytest.mark.parametrize("make, match", [
+    (lambda: Box(0.0, 1.0), "size"),
+    (lambda: Box(1.0, 1.0, wall_velocity={"front": 1.0}), "sides"),
+    (lambda: LatticeFluid(Box(1.0, 1.0), nx=2), "4 x 4"),
+    (lambda: LatticeFluid(Box(1.0, 2.0), nx=8, ny=8), "square"),
+    (lambda: LatticeFluid(Box(1.0, 1.0), nx=8, viscosity=-1.0), "viscosity"),
+    (lambda: LatticeFluid(Box(1.0, 1.0), nx=8).step(np.nan), "dt"),
+])
+def test_bad_input_is_refused(make, match):
+    with pytest.raises(ValueError, match=match):
+        make()
