@@ -98,7 +98,8 @@ def test_a_closed_box_only_loses_energy():
     f = LatticeFluid(Box(1.0, 1.0), nx=24, viscosity=1e-3, density=1.0)
     x, y = f.points.T
     # a vortex that vanishes at the walls
-    f.u = np.column_stack([np.sin(np.pi * x) ** 2 * np.sin(2 * np.pi * y), -np.sin(2 * np.pi * x) * np.sin(np.pi * y) ** 2])
+    f.u = np.column_stack([np.sin(np.pi * x) ** 2 * np.sin(2 * np.pi * y),
+                           -np.sin(2 * np.pi * x) * np.sin(np.pi * y) ** 2])
     energy = [f.kinetic_energy()]
     for _ in range(30):
         f.step(0.02)
