@@ -132,6 +132,12 @@ class LatticeFluid:
     def gradient(self, p):
         return self._nb.gradient(self._extended_scalar(p), self.n0)
 
+    def vorticity(self, u=None):
+        """dv/dx - du/dy per particle."""
+        u = self.u if u is None else u
+        ext = self._extended(u)
+        return (self._nb.gradient(ext[:, 1], self.n0)[:, 0] - self._nb.gradient(ext[:, 0], self.n0)[:, 1])
+
     def laplacian(self, u):
         return self._nb.laplacian(self._extended(u), self.n0, self.lam)
 
@@ -140,9 +146,10 @@ class LatticeFluid:
         speed = float(np.abs(self.u).max(initial=0.0))
         return self.cfl * self.h / speed if speed > 0 else np.inf
 
-    def step(self, dt: float) -> int:
+    def step(self, dt: float, forcing=None) -> int:
         """Advance by ``dt`` in as many equal inner steps as the Courant limit needs; returns
-        how many. dt = 0 does nothing."""
+        how many. dt = 0 does nothing. ``forcing(u, t, dt, final) -> u`` imposes a body's velocity
+        on the particles it covers (direct forcing) before and after (final) each projection."""
         if not (np.isfinite(dt) and dt >= 0):
             raise ValueError(f"dt must be finite and >= 0, got {dt}")
         left, inner = float(dt), 0
@@ -150,12 +157,14 @@ class LatticeFluid:
             # equal inner steps under the Courant limit (no sliver of a step at the end)
             count = max(1, int(np.ceil(left / self.stable_dt() * (1 - 1e-9))))
             h = left / count
-            self._substep(h)
+            self._substep(h, forcing)
             left = 0.0 if count == 1 else left - h
             inner += 1
         return inner
 
-    def _substep(self, dt):
+    def _substep(self, dt, forcing=None):
+        if not np.isfinite(self.u).all():
+            raise FluidBlowUp(f"non-finite velocity before step {self.steps + 1} (t = {self.time:.4g} s)")
         t0 = time.perf_counter()
         # Half the last pressure push acts where the fluid was, half where it arrives: the
         # pressure then acts along the path, and advection-projection splitting is second order.
@@ -163,9 +172,12 @@ class LatticeFluid:
         u = self._advect(self.u - half, dt, self.u) - half
         t1 = time.perf_counter()
         u = self._viscous_step(u, dt)
+        if forcing is not None:
+            u = forcing(u, self.time + dt, dt, False)
         t2 = time.perf_counter()
-        self.u, dp = self._project(u, dt)
+        u, dp = self._project(u, dt)
         self.p = self.p + dp
+        self.u = u if forcing is None else forcing(u, self.time + dt, dt, True)
         t3 = time.perf_counter()
         self.timings["advect_s"] += t1 - t0
         self.timings["viscous_s"] += t2 - t1
@@ -228,39 +240,69 @@ class LatticeFluid:
         key = (dt, k)
         if key not in self._viscous:
             if len(self._viscous) > 8:
-                self._viscous.clear()
-            lap = self._nb.laplacian_matrix(self.n0, self.lam, self._column,
-                                            np.concatenate([np.ones(self.n), self._sign[:, k]]))
-            const = self._nb.laplacian(np.concatenate([np.zeros(self.n), self._offset[:, k]]), self.n0, self.lam)
+                self._viscous = {c: v for c, v in self._viscous.items() if c[0] == "operator"}
+            lap, const = self._viscous_operator(k)
             a = sp.identity(self.n, format="csc") - dt * self.nu * lap.tocsc()
             self._viscous[key] = (spla.splu(a), const)
         return self._viscous[key]
 
     def _viscous_step(self, u, dt):
         out = np.empty_like(u)
+        # a weak viscous step (water on a fine lattice) is a few Krylov iterations; a stiff one
+        # is factored once per step size and reused
+        stiff = dt * self.nu / self.h**2 > 0.5
         for k in (0, 1):
             rhs = u[:, k] + dt * self.body_force[k]
             if self.nu == 0:
                 out[:, k] = rhs
                 continue
-            lu, const = self._viscous_matrix(dt, k)
-            out[:, k] = lu.solve(rhs + dt * self.nu * const)
+            if stiff:
+                lu, const = self._viscous_matrix(dt, k)
+                out[:, k] = lu.solve(rhs + dt * self.nu * const)
+                continue
+            lap, const = self._viscous_operator(k)
+            a = spla.LinearOperator((self.n, self.n), matvec=lambda x, lap=lap: x - dt * self.nu * (lap @ x))
+            b = rhs + dt * self.nu * const
+            # tolerance on the scale of the whole flow: a component that is only round-off
+            # (or already diffused) is done, where bicgstab would break down on it
+            tol = 1e-12 * (np.linalg.norm(u) + np.linalg.norm(b) + 1e-300)
+            if np.linalg.norm(a @ rhs - b) <= tol:
+                out[:, k] = rhs
+                continue
+            out[:, k], info = spla.bicgstab(a, b, x0=rhs, rtol=0.0, atol=tol, maxiter=500)
+            if info:
+                raise FluidBlowUp(f"the viscous solve did not converge (info {info}) at step {self.steps}")
         return out
+
+    def _viscous_operator(self, k):
+        key = ("operator", k)
+        if key not in self._viscous:
+            lap = self._nb.laplacian_matrix(self.n0, self.lam, self._column,
+                                            np.concatenate([np.ones(self.n), self._sign[:, k]]))
+            const = self._nb.laplacian(np.concatenate([np.zeros(self.n), self._offset[:, k]]), self.n0, self.lam)
+            self._viscous[key] = (lap, const)
+        return self._viscous[key]
 
     def _pressure_system(self):
         if self._pressure is None:
-            lap = self._nb.laplacian_matrix(self.n0, self.lam, self._column)
-            ones = sp.csr_matrix(np.ones((1, self.n)))
-            # the walls and periodic sides fix the pressure only up to a constant: mean zero
-            bordered = sp.bmat([[lap, ones.T], [ones, None]], format="csc")
-            self._pressure = (lap, spla.splu(bordered) if self.pressure_solver == "direct" else None)
+            lap = self._nb.laplacian_matrix(self.n0, self.lam, self._column).tolil()
+            # the walls and periodic sides fix the pressure only up to a constant: pin particle
+            # 0, then shift to mean zero (a bordered system would fill the factor densely)
+            pinned = lap.copy()
+            pinned[0, :] = 0.0
+            pinned[0, 0] = 1.0
+            lap = lap.tocsr()
+            self._pressure = (lap, spla.splu(pinned.tocsc()) if self.pressure_solver == "direct" else None)
         return self._pressure
 
     def _project(self, u, dt):
         lap, lu = self._pressure_system()
         rhs = self.rho / dt * self.divergence(u)
         if lu is not None:
-            p = lu.solve(np.append(rhs, 0.0))[:-1]
+            b = rhs - rhs.mean()
+            b[0] = 0.0
+            p = lu.solve(b)
+            p -= p.mean()
         else:
             p, info = spla.bicgstab(lap, rhs - rhs.mean(), rtol=1e-10, atol=0.0, maxiter=2000)
             if info:
