@@ -1,0 +1,94 @@
+"""The seed's Table 3.1 done properly: path per cycle and seconds of the default creature
+against substeps and particle resolution, each with its error against the finest run; and
+the vorticity through one cycle (the seed's Fig. 3.3) as a PNG.
+
+    .venv/bin/python -m bench.jellyfish     # writes its section of docs/REPORT.md (~1 min)
+"""
+
+import struct
+import time
+import zlib
+from pathlib import Path
+
+import numpy as np
+
+from bench.report import machine, table, write_section
+from core.jellyfish import default_config, default_creature, simulate_cycle
+
+IMG = Path(__file__).resolve().parent.parent / "docs" / "img"
+SUBSTEPS = (6, 10, 14, 20, 40)
+PARTICLES = (50, 75, 100, 150, 200)
+
+
+def run(**changes):
+    cfg = default_config(**changes)
+    t0 = time.perf_counter()
+    r = simulate_cycle(default_creature(cfg), cfg)
+    return r, time.perf_counter() - t0
+
+
+def sweep(name, values, fixed):
+    runs = [run(**{name: v}, **fixed) for v in values]
+    best = runs[-1][0].path_m
+    rows = []
+    for v, (r, sec) in zip(values, runs, strict=True):
+        rows.append([v, f"{sec:.2f}", f"{1000 * r.path_m:.3f}", f"{r.path_m / 0.10:.4f}",
+                     "-" if v == values[-1] else f"{abs(r.path_m - best) / abs(best):.3f}",
+                     r.timings["inner_steps"]])
+    return rows
+
+
+def write_png(path, rgb):
+    h, w, _ = rgb.shape
+    raw = b"".join(b"\x00" + rgb[y].astype(np.uint8).tobytes() for y in range(h))
+
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
+                     + chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b""))
+
+
+def vorticity_sheet(n=100, frames=8):
+    """Vorticity (red clockwise, blue anticlockwise) and the bell (black) at ``frames`` times."""
+    cfg = default_config(particles=n, substeps=frames * 2)
+    r = simulate_cycle(default_creature(cfg), cfg, sample_fields=True)
+    shots = r.fields[1::2]
+    scale = max(np.percentile(np.abs(w), 99.5) for _, _, w, _ in shots) or 1.0
+    tiles = []
+    for _, _, w, mask in shots:
+        v = np.clip(w.reshape(n, n) / scale, -1, 1)[::-1]  # image rows run downwards
+        m = mask.reshape(n, n)[::-1]
+        rgb = np.stack([255 * (1 - np.clip(-v, 0, 1)), 255 * (1 - np.abs(v)), 255 * (1 - np.clip(v, 0, 1))], -1)
+        rgb[m] = 0
+        tiles.append(np.pad(rgb, ((2, 2), (2, 2), (0, 0)), constant_values=255))
+    sheet = np.concatenate(tiles, axis=1).repeat(2, 0).repeat(2, 1)
+    IMG.mkdir(exist_ok=True)
+    write_png(IMG / "jellyfish_vorticity.png", sheet)
+    return r
+
+
+def main():
+    head = ["", "seconds", "path mm", "path / diameter", "error vs finest", "inner steps"]
+    by_steps = sweep("substeps", SUBSTEPS, {"particles": 100})
+    by_res = sweep("particles", PARTICLES, {"substeps": 14})
+    for r in by_steps + by_res:
+        print(r, flush=True)
+    vorticity_sheet()
+    text = "\n".join([
+        f"Machine: {machine()}. core.jellyfish.simulate_cycle on the default creature (the seed's Aurelia case: "
+        "10 cm bell, 20 x 20 cm periodic domain, water, one 1 s cycle, a third of it contracting). The seed's "
+        "Table 3.1 gave 7-27 s per cycle and 0.020-0.038 m of path for 6-20 substeps on one 2008 core.",
+        "", "### Against substeps (100 x 100 particles)", "",
+        table(["substeps", *head[1:]], by_steps), "",
+        "### Against particles per side (14 substeps)", "",
+        table(["particles", *head[1:]], by_res), "",
+        "![vorticity through one cycle](img/jellyfish_vorticity.png)", "",
+        "Vorticity through one cycle (8 frames, left to right; red clockwise, blue anticlockwise, the bell "
+        "black), 100 x 100 particles.",
+    ])
+    write_section("jellyfish", "Jellyfish: one swimming cycle against substeps and resolution", text)
+
+
+if __name__ == "__main__":
+    main()
