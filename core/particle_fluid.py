@@ -24,6 +24,8 @@ from scipy.ndimage import map_coordinates, spline_filter
 from .mps import Neighbours, lattice
 
 SIDES = ("left", "right", "bottom", "top")
+# Factored pressure matrices by lattice: an optimisation simulates many creatures on one.
+_PRESSURE_CACHE = {}
 
 
 class FluidBlowUp(RuntimeError):
@@ -284,6 +286,10 @@ class LatticeFluid:
         return self._viscous[key]
 
     def _pressure_system(self):
+        key = (self.box.width, self.box.height, tuple(self.box.periodic), self.nx, self.ny, self.re,
+               self.pressure_solver)
+        if self._pressure is None and key in _PRESSURE_CACHE:
+            self._pressure = _PRESSURE_CACHE[key]
         if self._pressure is None:
             lap = self._nb.laplacian_matrix(self.n0, self.lam, self._column).tolil()
             # the walls and periodic sides fix the pressure only up to a constant: pin particle
@@ -293,6 +299,9 @@ class LatticeFluid:
             pinned[0, 0] = 1.0
             lap = lap.tocsr()
             self._pressure = (lap, spla.splu(pinned.tocsc()) if self.pressure_solver == "direct" else None)
+            if len(_PRESSURE_CACHE) >= 4:
+                _PRESSURE_CACHE.pop(next(iter(_PRESSURE_CACHE)))
+            _PRESSURE_CACHE[key] = self._pressure
         return self._pressure
 
     def _project(self, u, dt):
