@@ -200,8 +200,8 @@ def measure_figure(name, render):
     seconds = time.perf_counter() - t0
     # the result hides faces, so the moved vertices come from its stored offsets
     results = _sub("addon.results")
-    io = _sub("addon.mesh_io")
-    moved = [fitted[0]] + [(v + results.read_offsets(g, len(v)) @ io.read_mesh(g).matrix_world[:3, :3].T, f)
+    # offsets are stored in object space: turn them with the object's matrix, no mesh read needed
+    moved = [fitted[0]] + [(v + results.read_offsets(g, len(v)) @ np.array(g.matrix_world)[:3, :3].T, f)
                            for g, (v, f) in zip(garments, fitted[1:], strict=True)]
     rows.append(row("DeformRT resolve_layers", seconds, layers, moved=moved))
     shot("deformrt")
