@@ -1,0 +1,170 @@
+"""Maximisers over the unit cube for expensive, batched objectives (seed 3.5).
+
+``ga_sa`` is the seed's genetic algorithm with simulated-annealing selection (Mahfoud and
+Goldberg's parallel recombinative simulated annealing): real-valued chromosomes, blend
+crossover, replace-by-random mutation, and each child competes with its parent in a
+Boltzmann trial at temperature T = 1 / (G_offset + log(1 + G)). ``random_search`` is the
+baseline every method must beat; ``differential_evolution`` wraps scipy's on the same budget.
+
+Objectives take a list of points and return their fitness (higher is better, -inf for an
+infeasible point), so a caller can evaluate a generation in parallel. ``stop()`` is polled
+between batches; whatever has been evaluated so far is kept.
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import differential_evolution as _scipy_de
+
+
+@dataclass
+class SearchResult:
+    best_x: np.ndarray
+    best_fitness: float
+    evaluations: int
+    history: list = field(default_factory=list)  # per generation: (evaluations, best so far, population mean)
+    stopped: str = "generations"  # "agreement", "generations", "budget" or "cancelled"
+
+
+class Stop(Exception):  # noqa: N818 - a request, not an error
+    """Raised by stop() polling or by an objective: end the search, keep what was evaluated."""
+
+
+class _Tracker:
+    """Counts evaluations, remembers the best point ever seen and honours stop()."""
+
+    def __init__(self, objective, stop):
+        self.objective, self.stop = objective, stop or (lambda: False)
+        self.evaluations, self.best_x, self.best_f = 0, None, -np.inf
+
+    def __call__(self, points):
+        points = np.atleast_2d(np.asarray(points, float))
+        if self.stop():
+            raise Stop
+        f = np.asarray(self.objective(list(points)), float)
+        if f.shape != (len(points),) or np.isnan(f).any() or np.isposinf(f).any():
+            raise ValueError("the objective must return one finite fitness (or -inf) per point")
+        self.evaluations += len(points)
+        k = int(np.argmax(f))
+        if self.best_x is None or f[k] > self.best_f:
+            self.best_x, self.best_f = points[k].copy(), float(f[k])
+        return f
+
+    def result(self, history, stopped):
+        # a search stopped before its first batch finished has no best point (best_x None)
+        return SearchResult(self.best_x, self.best_f, self.evaluations, history, stopped)
+
+
+def temperature(generation, offset, scale=1.0):
+    """Eq. 3.15, T = 1 / (G_offset + log(1 + G)), in units of ``scale``."""
+    return scale / (offset + np.log1p(generation))
+
+
+def accept(child, parent, t, rng):
+    """Boltzmann trial for a maximiser: a better child always wins; a worse one wins with
+    probability exp((child - parent) / T). An infeasible child never beats a feasible parent."""
+    child, parent = np.asarray(child, float), np.asarray(parent, float)
+    with np.errstate(invalid="ignore", over="ignore"):
+        p = np.where(child >= parent, 1.0, np.exp(np.minimum(child - parent, 0.0) / t))
+    p = np.where(np.isneginf(child) & np.isneginf(parent), 0.0, np.nan_to_num(p, nan=0.0))
+    return rng.random(np.shape(p)) < p
+
+
+def agreed(fitness, tolerance):
+    """The population agrees within ``tolerance`` of its best (the seed's 10 % stop)."""
+    f = np.asarray(fitness, float)
+    if not np.isfinite(f).all():
+        return False
+    spread = f.max() - f.min()
+    return spread <= tolerance * max(abs(f.max()), abs(f.min()), 1e-12)
+
+
+def ga_sa(objective, x0, rng, population=10, generations=30, g_offset=5.0, crossover=0.9,
+          mutation=0.2, spread=0.15, tolerance=0.1, stop=None):
+    """Maximise ``objective`` over [0, 1]^d from the start point ``x0``: the first population
+    is x0 and random distortions of it (normal, ``spread`` wide, clipped to the cube)."""
+    x0 = np.clip(np.asarray(x0, float), 0.0, 1.0)
+    if population < 2 or population % 2:
+        raise ValueError(f"the population must be an even number >= 2, got {population}")
+    if generations < 1:
+        raise ValueError(f"generations must be >= 1, got {generations}")
+    track = _Tracker(objective, stop)
+    d = len(x0)
+    pop = np.clip(x0 + spread * rng.standard_normal((population, d)), 0.0, 1.0)
+    pop[0] = x0
+    history = []
+    try:
+        fit = track(pop)
+        # the seed's temperature is in fitness units; measured in the first population's
+        # fitness spread it means the same whatever the weights and scales of eq. 3.14
+        finite = fit[np.isfinite(fit)]
+        scale = float(finite.std()) if len(finite) > 1 and finite.std() > 0 else 1.0
+        history.append((track.evaluations, track.best_f, _mean(fit)))
+        for g in range(1, generations + 1):
+            if agreed(fit, tolerance):
+                return track.result(history, "agreement")
+            t = temperature(g, g_offset, scale)
+            order = rng.permutation(population)
+            a, b = order[0::2], order[1::2]
+            mix = rng.random((len(a), d))
+            blend = rng.random((len(a), 1)) < crossover
+            lo, hi = np.minimum(pop[a], pop[b]), np.maximum(pop[a], pop[b])
+            # crossover: a value drawn between the parents' (the seed's real-valued variant)
+            child_a = np.where(blend, lo + mix * (hi - lo), pop[a])
+            child_b = np.where(blend, lo + (1 - mix) * (hi - lo), pop[b])
+            children = np.vstack([child_a, child_b])
+            # mutation: a gene replaced by a fresh random value
+            mutate = rng.random(children.shape) < mutation
+            children[mutate] = rng.random(int(mutate.sum()))
+            parents = np.concatenate([a, b])
+            f_child = track(children)
+            win = accept(f_child, fit[parents], t, rng)
+            pop[parents[win]] = children[win]
+            fit[parents[win]] = f_child[win]
+            history.append((track.evaluations, track.best_f, _mean(fit)))
+    except Stop:
+        return track.result(history, "cancelled")
+    return track.result(history, "generations")
+
+
+def random_search(objective, dim, rng, budget, batch=10, stop=None):
+    """Uniform samples of the cube, ``batch`` at a time (the baseline)."""
+    track = _Tracker(objective, stop)
+    history = []
+    try:
+        while track.evaluations < budget:
+            n = min(batch, budget - track.evaluations)
+            f = track(rng.random((n, dim)))
+            history.append((track.evaluations, track.best_f, _mean(f)))
+    except Stop:
+        return track.result(history, "cancelled")
+    return track.result(history, "budget")
+
+
+def differential_evolution(objective, dim, rng, budget, population=10, stop=None, penalty=1e3):
+    """scipy's differential evolution (best1bin, deferred updating so a generation is one
+    batch) with maxiter set so it spends about ``budget`` evaluations, no polishing."""
+    track = _Tracker(objective, stop)
+    history = []
+    popsize = max(1, int(np.ceil(population / dim)))
+    members = popsize * dim
+    maxiter = max(0, budget // members - 1)
+
+    def minimise(points):
+        # scipy hands (dim, S) arrays to a vectorised objective
+        f = track(np.asarray(points).T)
+        history.append((track.evaluations, track.best_f, _mean(f)))
+        return np.where(np.isfinite(f), -f, penalty)
+
+    try:
+        _scipy_de(minimise, [(0.0, 1.0)] * dim, popsize=popsize, maxiter=maxiter, rng=rng, polish=False,
+                  init="latinhypercube", updating="deferred", vectorized=True, tol=0.0)
+    except Stop:
+        return track.result(history, "cancelled")
+    return track.result(history, "budget")
+
+
+def _mean(f):
+    f = np.asarray(f, float)
+    finite = f[np.isfinite(f)]
+    return float(finite.mean()) if len(finite) else -np.inf

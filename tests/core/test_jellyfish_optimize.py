@@ -1,0 +1,89 @@
+"""core.jellyfish.optimize: reproducible, the same wherever it runs (here, a process pool, a
+Dask cluster), stoppable with a usable creature, and its fitness scaling checked by hand."""
+
+import numpy as np
+import pytest
+
+from core.bell import Creature
+from core.jellyfish import (
+    StrokeSpace,
+    default_config,
+    default_creature,
+    fitness,
+    optimize,
+    reference_scales,
+    simulate_cycle,
+)
+
+CFG = default_config(particles=30)  # coarse: these tests are about the search, not the flow
+
+
+def _same(a, b):
+    return (np.array_equal(a.creature.destinations, b.creature.destinations)
+            and a.creature.contraction == b.creature.contraction and a.fitness == b.fitness)
+
+
+def test_the_reference_creature_scores_w_d_minus_w_b_minus_w_e():
+    scales = reference_scales(CFG)
+    r = simulate_cycle(default_creature(CFG), CFG, scales=scales)
+    w_d, w_b, w_e = CFG.weights
+    assert r.fitness == pytest.approx(w_d - w_b - w_e, abs=1e-12)
+    still = default_creature(CFG)
+    lazy = simulate_cycle(Creature(still.controls, still.controls, 0.5), CFG, scales=scales)
+    assert lazy.fitness == 0.0  # no stroke: no path, no bending, no energy lost
+    assert fitness(0.01, 0.0, 0.0, CFG) == pytest.approx(CFG.weights[0] * 0.01 / CFG.bell.diameter)
+
+
+def test_stroke_space_round_trips_and_holds_the_default_stroke():
+    space = StrokeSpace()
+    genes = space.genes(default_creature(CFG), CFG)
+    assert ((genes > 0) & (genes < 1)).all()
+    back = space.creature(genes, CFG)
+    assert np.allclose(back.destinations, default_creature(CFG).destinations, atol=1e-15)
+    assert back.contraction == pytest.approx(default_creature(CFG).contraction)
+    corner = space.creature(np.zeros(space.dim), CFG)
+    a = 0.5 * CFG.bell.diameter
+    assert np.allclose(corner.destinations - corner.controls, a * np.array(space.low))
+    with pytest.raises(ValueError, match="below its upper"):
+        StrokeSpace(contraction=(0.6, 0.2)).creature(genes, CFG)
+    with pytest.raises(ValueError, match="unknown method"):
+        optimize(CFG, method="cma")
+
+
+def test_same_seed_same_optimum_in_this_process_and_in_a_process_pool():
+    here = optimize(CFG, seed=3, population=4, generations=2, workers=1)
+    again = optimize(CFG, seed=3, population=4, generations=2, workers=1)
+    pool = optimize(CFG, seed=3, population=4, generations=2, workers=2)
+    other = optimize(CFG, seed=4, population=4, generations=2, workers=1)
+    assert (here.backend, pool.backend) == ("serial", "processes")
+    assert _same(here, again) and _same(here, pool) and not _same(here, other)
+    assert here.evaluations == 4 * 3 and [h["evaluations"] for h in here.history] == [4, 8, 12]
+    # the best is the best of everything evaluated, and what it reports is what it swims
+    assert here.fitness == max(h["best"] for h in here.history)
+    replay = simulate_cycle(here.creature, CFG, scales=here.scales)
+    assert replay.fitness == pytest.approx(here.fitness, rel=1e-9)
+
+
+@pytest.mark.parametrize("method", ["de", "random"])
+def test_other_methods_spend_their_budget(method):
+    # differential evolution spends whole generations (population rounded up to the genes' count)
+    r = optimize(CFG, method=method, seed=0, population=5, budget=10, workers=1)
+    assert r.method == method and r.evaluations == 10 and r.stopped == "budget" and np.isfinite(r.fitness)
+
+
+def test_a_stop_keeps_the_best_creature_so_far_and_progress_reaches_the_caller():
+    calls = []
+    r = optimize(CFG, seed=0, population=4, generations=10, workers=2,
+                 progress=lambda done, total, best: calls.append((done, total, best)), stop=lambda: len(calls) >= 6)
+    assert r.stopped == "cancelled" and 6 <= r.evaluations < 4 * 11
+    assert [c[0] for c in calls] == list(range(1, len(calls) + 1)) and calls[0][1] == 4 * 11
+    assert r.fitness == max(c[2] for c in calls)
+    assert simulate_cycle(r.creature, CFG, scales=r.scales).fitness == pytest.approx(r.fitness, rel=1e-9)
+
+
+def test_a_dask_cluster_finds_what_the_local_pool_finds():
+    distributed = pytest.importorskip("distributed")
+    local = optimize(CFG, seed=5, population=4, generations=1, workers=2)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as lc:
+        far = optimize(CFG, seed=5, population=4, generations=1, scheduler=lc.scheduler_address)
+    assert far.backend == "dask" and _same(local, far)
