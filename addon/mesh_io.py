@@ -46,16 +46,22 @@ def read_mesh(obj, depsgraph=None, world=True) -> MeshArrays:
 
 
 def fill_mesh(mesh, vertices, faces) -> None:
-    """Replace a mesh datablock's geometry with triangles (vertices in the object's space)."""
+    """Replace a mesh datablock's geometry (vertices in the object's space) with triangles
+    ((n, 3) array) or polygons of any size (a list of index sequences)."""
     v = np.ascontiguousarray(vertices, dtype=np.float32).reshape(-1)
-    f = np.ascontiguousarray(faces, dtype=np.int32).reshape(-1)
+    if isinstance(faces, np.ndarray) or not len(faces):
+        f = np.ascontiguousarray(faces, dtype=np.int32).reshape(-1)
+        sizes = np.full(len(f) // 3, 3, dtype=np.int32)
+    else:
+        sizes = np.fromiter((len(p) for p in faces), dtype=np.int32, count=len(faces))
+        f = np.fromiter((i for p in faces for i in p), dtype=np.int32, count=int(sizes.sum()))
     mesh.clear_geometry()
     mesh.vertices.add(len(v) // 3)
     mesh.vertices.foreach_set("co", v)
     mesh.loops.add(len(f))
     mesh.loops.foreach_set("vertex_index", f)
-    mesh.polygons.add(len(f) // 3)
-    mesh.polygons.foreach_set("loop_start", np.arange(0, len(f), 3, dtype=np.int32))
+    mesh.polygons.add(len(sizes))
+    mesh.polygons.foreach_set("loop_start", (np.cumsum(sizes) - sizes).astype(np.int32))
     mesh.update()
     if mesh.validate(verbose=False):
         raise RuntimeError(f"mesh {mesh.name!r} had invalid geometry that Blender had to repair")

@@ -4,7 +4,7 @@ import json
 
 import bpy
 
-from . import scene_roles
+from . import jellyfish, scene_roles
 
 
 class DEFORMRT_PT_layers(bpy.types.Panel):
@@ -97,6 +97,29 @@ class DEFORMRT_PT_resolve(bpy.types.Panel):
                 box.label(text=line)
 
 
+class DEFORMRT_PT_jellyfish(bpy.types.Panel):
+    bl_idname = "DEFORMRT_PT_jellyfish"
+    bl_label = "Jellyfish"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "DeformRT"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.operator("deformrt.add_jellyfish", icon="ADD")
+        bell = jellyfish.jellyfish_of(context.active_object)
+        if bell is None:
+            layout.label(text="Select a jellyfish to optimise and bake it", icon="INFO")
+            return
+        layout.operator("deformrt.optimize_jellyfish", icon="PLAY")
+        if jellyfish.PROP_STROKE in bell:
+            s = json.loads(bell[jellyfish.PROP_STROKE])
+            layout.label(text=f"Stroke: fitness {s['fitness']:+.3f} ({s['method']}, {s['evaluations']} cycles)")
+        else:
+            layout.label(text="No optimised stroke yet: baking uses the default one", icon="INFO")
+        layout.operator("deformrt.bake_jellyfish", icon="ANIM")
+
+
 def _last_report(settings):
     if not settings.last_report:
         return []
@@ -121,4 +144,4 @@ def _last_report(settings):
     return lines
 
 
-CLASSES = (DEFORMRT_PT_layers, DEFORMRT_PT_resolve)
+CLASSES = (DEFORMRT_PT_layers, DEFORMRT_PT_resolve, DEFORMRT_PT_jellyfish)

@@ -38,7 +38,7 @@ class _Tracker:
         self.evaluations, self.best_x, self.best_f = 0, None, -np.inf
 
     def __call__(self, points):
-        points = np.atleast_2d(np.asarray(points, float))
+        points = np.array(points, float, ndmin=2)  # a copy: the caller goes on changing its population
         if self.stop():
             raise Stop
         f = np.asarray(self.objective(list(points)), float)

@@ -301,7 +301,7 @@ def optimize(config: JellyfishConfig | None = None, method="ga-sa", seed=0, popu
     with Evaluator(workers, scheduler) as evaluator:
 
         def objective(points):
-            jobs = [(np.asarray(p, float), config, space, scales) for p in points]
+            jobs = [(np.array(p, float), config, space, scales) for p in points]  # copies: the search reuses its arrays
 
             def done(k, cycle):
                 best["count"] += 1

@@ -87,3 +87,13 @@ def test_a_dask_cluster_finds_what_the_local_pool_finds():
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as lc:
         far = optimize(CFG, seed=5, population=4, generations=1, scheduler=lc.scheduler_address)
     assert far.backend == "dask" and _same(local, far)
+
+
+@pytest.mark.parametrize("seed, generations", [(0, 1), (1, 3), (2, 3)])
+def test_the_reported_creature_swims_what_was_reported_for_it(seed, generations):
+    # the search overwrites its population in place (seed 0: the best parent loses its
+    # Boltzmann trial to a worse child); the kept best must not change with it
+    r = optimize(CFG, seed=seed, population=4, generations=generations, workers=1)
+    replay = simulate_cycle(r.creature, CFG, scales=r.scales)
+    assert replay.fitness == pytest.approx(r.fitness, rel=1e-9)
+    assert replay.path_m == pytest.approx(r.cycle.path_m, rel=1e-9)

@@ -1,0 +1,232 @@
+"""The jellyfish in Blender: build the 3D animal, keep an optimised stroke on it, and bake
+the stroke as shape keys and keyframes (nothing DeformRT-specific is needed to play or
+render the result).
+
+The model is built in the 2D simulation's units (a 10 cm bell) times ``scale``. Baking adds
+shape keys to the bell, veins and tentacles: "DeformRT Contracted" (the full stroke; the
+deformation is linear in it, so its value is the stroke phase), "DeformRT Wobble" (a small
+random variation) and, on the bell, "DeformRT Volume" (a normal offset keyed per frame so
+the bell keeps its volume); "DeformRT Trail" stretches the tentacles while the bell speeds.
+"""
+
+import json
+
+import bpy
+import numpy as np
+
+from ..core import bell3d
+from ..core.bell import BellShape, Creature, phase
+from ..core.jellyfish import default_config, default_creature, simulate_cycle
+from .mesh_io import fill_mesh
+
+PROP_MODEL, PROP_STROKE = "deformrt_jellyfish_model", "deformrt_jellyfish_stroke"
+KEYS = ("DeformRT Contracted", "DeformRT Wobble", "DeformRT Volume", "DeformRT Trail")
+
+
+def mesoglea_material():
+    """Glass-like jelly (index 1.34, within the 1.33-1.36 measured for mesoglea) with volume
+    absorption, so light through thick parts dims by Beer-Lambert."""
+    mat = bpy.data.materials.get("DeformRT Mesoglea")
+    if mat is not None:
+        return mat
+    mat = bpy.data.materials.new("DeformRT Mesoglea")
+    mat.use_nodes = True
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    bsdf = nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (0.85, 0.92, 1.0, 1.0)
+    bsdf.inputs["Transmission Weight"].default_value = 1.0
+    bsdf.inputs["IOR"].default_value = 1.34
+    bsdf.inputs["Roughness"].default_value = 0.05
+    absorb = nodes.new("ShaderNodeVolumeAbsorption")
+    absorb.inputs["Color"].default_value = (0.75, 0.85, 1.0, 1.0)
+    absorb.inputs["Density"].default_value = 4.0
+    links.new(absorb.outputs["Volume"], nodes["Material Output"].inputs["Volume"])
+    return mat
+
+
+def _tint_material(name, colour, alpha):
+    mat = bpy.data.materials.get(name) or bpy.data.materials.new(name)
+    mat.use_nodes = True
+    bsdf = mat.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = colour
+    bsdf.inputs["Alpha"].default_value = alpha
+    bsdf.inputs["Roughness"].default_value = 0.3
+    return mat
+
+
+def _curve_object(name, polylines, radius, collection, material):
+    curve = bpy.data.curves.new(name, "CURVE")
+    curve.dimensions = "3D"
+    curve.bevel_depth = radius
+    curve.bevel_resolution = 2
+    for line in polylines:
+        spline = curve.splines.new("POLY")
+        spline.points.add(len(line) - 1)
+        co = np.column_stack([line, np.ones(len(line))])
+        spline.points.foreach_set("co", co.ravel())
+    curve.materials.append(material)
+    obj = bpy.data.objects.new(name, curve)
+    collection.objects.link(obj)
+    return obj
+
+
+def add(context, size=0.3, segments=48, tentacles=16, tentacle_length=1.5, velum=0.12, veins=8):
+    """The bell (mesh), its veins and tentacles (curves, parented to it) at the 3D cursor."""
+    shape = BellShape()
+    scale = size / shape.diameter
+    model = bell3d.build(shape, segments=segments, velum=velum, veins=veins, tentacles=tentacles,
+                         tentacle_length=tentacle_length)
+    col = context.collection
+    mesh = bpy.data.meshes.new("Jellyfish")
+    fill_mesh(mesh, model.verts * scale, model.faces)
+    mesh.shade_smooth()
+    mesh.materials.append(mesoglea_material())
+    bell = bpy.data.objects.new("Jellyfish", mesh)
+    col.objects.link(bell)
+    bell.location = context.scene.cursor.location
+    bell[PROP_MODEL] = json.dumps({"scale": scale, "bell_vertices": model.bell_vertices, "segments": segments})
+    parts = []
+    if veins:
+        parts.append(_curve_object("Jellyfish Veins", [v * scale for v in model.veins], 0.004 * size, col,
+                                   _tint_material("DeformRT Veins", (0.95, 0.55, 0.7, 1.0), 0.8)))
+    if tentacles:
+        parts.append(_curve_object("Jellyfish Tentacles", [t * scale for t in model.tentacles], 0.003 * size, col,
+                                   _tint_material("DeformRT Tentacles", (0.95, 0.8, 0.85, 1.0), 0.6)))
+    for p in parts:
+        p.parent = bell
+    return bell
+
+
+def jellyfish_of(obj):
+    """The bell object for a bell or one of its parts, else None."""
+    while obj is not None and PROP_MODEL not in obj:
+        obj = obj.parent
+    return obj
+
+
+def store_stroke(bell, result, config):
+    """Keep an optimisation's best creature and its cycle on the bell."""
+    c = result.creature
+    bell[PROP_STROKE] = json.dumps({
+        "method": result.method, "fitness": result.fitness, "evaluations": result.evaluations,
+        "stopped": result.stopped, "controls": c.controls.tolist(), "destinations": c.destinations.tolist(),
+        "contraction": c.contraction, "path_m": result.cycle.path_m, "speed": result.cycle.speed.tolist(),
+        "period": config.period, "particles": config.particles})
+
+
+def stroke_of(bell):
+    """(creature, path per cycle, speed per substep, period) stored on the bell, or the default
+    creature simulated now (coarse) when nothing was optimised yet; the last item says which."""
+    if PROP_STROKE in bell:
+        s = json.loads(bell[PROP_STROKE])
+        creature = Creature(np.array(s["controls"]), np.array(s["destinations"]), s["contraction"])
+        return creature, s["path_m"], np.array(s["speed"]), s["period"], True
+    cfg = default_config(particles=60)
+    creature = default_creature(cfg)
+    cycle = simulate_cycle(creature, cfg)
+    return creature, cycle.path_m, cycle.speed, cfg.period, False
+
+
+def _points(obj):
+    if obj.type == "MESH":
+        co = np.empty(len(obj.data.vertices) * 3)
+        obj.data.vertices.foreach_get("co", co)
+        return co.reshape(-1, 3)
+    pts = [np.array([p.co[:3] for p in s.points]) for s in obj.data.splines]
+    return np.vstack(pts)
+
+
+def _set_key(obj, name, co, lo=-10.0, hi=10.0):
+    if obj.data.shape_keys is None:
+        obj.shape_key_add(name="Basis", from_mix=False)
+    key = obj.data.shape_keys.key_blocks.get(name) or obj.shape_key_add(name=name, from_mix=False)
+    key.slider_min, key.slider_max = lo, hi
+    key.data.foreach_set("co", np.asarray(co, np.float32).ravel())
+    return key
+
+
+def clear_bake(bell):
+    """Remove DeformRT's keys and keyframes from the bell and its parts (Basis stays if the
+    user had other keys)."""
+    for obj in (bell, *bell.children):
+        keys = obj.data.shape_keys if obj.type in {"MESH", "CURVE"} else None
+        if keys is not None:
+            if keys.animation_data:
+                keys.animation_data_clear()
+            for name in KEYS:
+                if name in keys.key_blocks:
+                    obj.shape_key_remove(keys.key_blocks[name])
+            if len(keys.key_blocks) == 1:
+                obj.shape_key_remove(keys.key_blocks[0])
+    if bell.animation_data and bell.animation_data.action:
+        fc = bell.animation_data.action.fcurves.find("location", index=2)
+        if fc is not None:
+            bell.animation_data.action.fcurves.remove(fc)
+
+
+def bake(scene, bell, frame_start, frame_end, cycle_frames, wobble=0.03, seed=0):
+    """Keys and keyframes for the stored stroke from frame_start to frame_end, one cycle
+    every ``cycle_frames`` frames; returns a summary line."""
+    if frame_end < frame_start:
+        raise ValueError(f"the frame range is empty ({frame_start}-{frame_end})")
+    if cycle_frames < 2:
+        raise ValueError("a cycle needs at least 2 frames")
+    info = json.loads(bell[PROP_MODEL])
+    scale, n_bell = info["scale"], info["bell_vertices"]
+    creature, path_m, speed, period, optimised = stroke_of(bell)
+    shape = BellShape()
+    box_half = 0.5 * default_config().box
+    field = bell3d.StrokeField(shape, creature, box_half)
+    rng = np.random.default_rng(seed)
+    jitter = wobble * 0.5 * shape.diameter * rng.standard_normal((field.control_count, 3))
+    wobble_field = bell3d.StrokeField(shape, Creature(creature.controls, creature.controls, 0.5), box_half,
+                                      jitter=jitter)
+    clear_bake(bell)
+    rest = _points(bell) / scale
+    bell_faces = [tuple(p.vertices) for p in bell.data.polygons if max(p.vertices) < n_bell]
+    normals = np.zeros_like(rest)
+    normals[:n_bell] = bell3d.vertex_normals(rest[:n_bell], bell_faces)
+    thickness = shape.height - shape.inner_height
+    moved, wob = field(rest), wobble_field(rest)
+    _set_key(bell, KEYS[0], (rest + moved) * scale)
+    _set_key(bell, KEYS[1], (rest + wob) * scale)
+    _set_key(bell, KEYS[2], (rest + thickness * normals) * scale)
+    parts = []
+    for child in bell.children:
+        if child.type != "CURVE":
+            continue
+        p = _points(child) / scale
+        _set_key(child, KEYS[0], (p + field(p)) * scale)
+        _set_key(child, KEYS[1], (p + wobble_field(p)) * scale)
+        # tentacles trail: points further from the margin lag more (stretched downwards)
+        trail = np.zeros_like(p)
+        trail[:, 2] = np.minimum(p[:, 2], 0.0) * 0.25
+        _set_key(child, KEYS[3], (p + trail) * scale, lo=0.0, hi=1.0)
+        parts.append(child)
+    rest_volume = bell3d.volume(rest[:n_bell], bell_faces)
+    times = np.arange(1, len(speed) + 1) / len(speed)
+    travelled = np.concatenate([[0.0], np.cumsum(speed) * period / len(speed)])
+    peak = max(float(np.abs(speed).max()), 1e-12)
+    z0 = bell.location.z
+    for frame in range(frame_start, frame_end + 1):
+        cycles, tau = divmod((frame - frame_start) / cycle_frames, 1.0)
+        s = float(phase(tau, creature.contraction))
+        w = 0.5 * (np.sin(2 * np.pi * (frame - frame_start) / (1.7 * cycle_frames) + seed) + 1.0)
+        now = rest[:n_bell] + s * moved[:n_bell] + w * wob[:n_bell]
+        offset = bell3d.volume_offset(now, bell_faces, normals[:n_bell], rest_volume) / thickness
+        sp = float(np.interp(tau, np.concatenate([[0.0], times]), np.concatenate([[0.0], speed])))
+        y = cycles * path_m + float(np.interp(tau, np.concatenate([[0.0], times]), travelled))
+        for obj, values in ((bell, (s, w, offset, None)),
+                            *((c, (s, w, None, max(sp, 0.0) / peak)) for c in parts)):
+            blocks = obj.data.shape_keys.key_blocks
+            for name, v in zip(KEYS, values, strict=True):
+                if v is not None:
+                    blocks[name].value = v
+                    blocks[name].keyframe_insert("value", frame=frame)
+        bell.location.z = z0 + y * scale
+        bell.keyframe_insert("location", index=2, frame=frame)
+    bell.location.z = z0
+    scene.frame_set(scene.frame_current)
+    source = "the optimised stroke" if optimised else "the default stroke (nothing optimised yet)"
+    return (f"Baked {frame_end - frame_start + 1} frames of {source}: "
+            f"{path_m / shape.diameter:.3f} bell diameters per {cycle_frames}-frame cycle")

@@ -1,0 +1,106 @@
+"""deformrt.add_jellyfish, optimize_jellyfish and bake_jellyfish driven headless: the bell's
+volume against the analytic one and through the baked cycle, the stored stroke against a
+fresh simulation, the swim against the stored path."""
+
+import importlib
+import json
+
+import bpy
+import numpy as np
+import pytest
+
+
+def sub(ext, path):
+    return importlib.import_module(f"{ext.__name__}.{path}")
+
+
+def evaluated_points(obj):
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    ev = obj.evaluated_get(depsgraph)
+    mesh = ev.to_mesh()
+    try:
+        co = np.empty(len(mesh.vertices) * 3)
+        mesh.vertices.foreach_get("co", co)
+    finally:
+        ev.to_mesh_clear()
+    return co.reshape(-1, 3)
+
+
+def closed_volume(points, polygons):
+    """Divergence theorem over fan triangles, written here apart from core.bell3d."""
+    total = 0.0
+    for f in polygons:
+        for k in range(1, len(f) - 1):
+            a, b, c = points[f[0]], points[f[k]], points[f[k + 1]]
+            total += float(np.dot(a, np.cross(b, c))) / 6.0
+    return total
+
+
+@pytest.fixture
+def jelly(extension, clean_scene):
+    assert bpy.ops.deformrt.add_jellyfish(size=0.5, segments=32, tentacles=6, veins=4) == {"FINISHED"}
+    return bpy.context.active_object
+
+
+def _bell_polygons(bell):
+    n = json.loads(bell["deformrt_jellyfish_model"])["bell_vertices"]
+    return n, [tuple(p.vertices) for p in bell.data.polygons if max(p.vertices) < n]
+
+
+def test_add_jellyfish_builds_a_closed_bell_of_the_right_volume_with_its_parts(jelly):
+    n, polys = _bell_polygons(jelly)
+    scale = 0.5 / 0.1
+    a, h, hi = 0.05 * scale, 0.035 * scale, 0.022 * scale
+    exact = 2.0 / 3.0 * np.pi * a * a * (h - hi)
+    assert closed_volume(evaluated_points(jelly)[:n], polys) == pytest.approx(exact, rel=0.02)
+    kinds = sorted((c.name.split()[-1], c.type, len(c.data.splines)) for c in jelly.children)
+    assert kinds == [("Tentacles", "CURVE", 6), ("Veins", "CURVE", 4)]
+    mat = jelly.active_material
+    bsdf = mat.node_tree.nodes["Principled BSDF"]
+    assert bsdf.inputs["IOR"].default_value == pytest.approx(1.34)
+    assert bsdf.inputs["Transmission Weight"].default_value == 1
+    assert mat.node_tree.nodes["Material Output"].inputs["Volume"].is_linked
+
+
+def test_optimise_in_worker_processes_then_bake_a_swim_that_keeps_its_volume(extension, jelly):
+    core_jf = sub(extension, "core.jellyfish")
+    core_bell = sub(extension, "core.bell")
+    # two worker processes import the installed extension's core without Blender's add-on machinery
+    assert bpy.ops.deformrt.optimize_jellyfish(particles=30, population=4, generations=1, workers=2) == {"FINISHED"}
+    stroke = json.loads(jelly["deformrt_jellyfish_stroke"])
+    assert stroke["evaluations"] == 8 and stroke["method"] == "ga-sa"
+    creature = core_bell.Creature(np.array(stroke["controls"]), np.array(stroke["destinations"]), stroke["contraction"])
+    replay = core_jf.simulate_cycle(creature, core_jf.default_config(particles=30))
+    assert replay.path_m == pytest.approx(stroke["path_m"], rel=1e-9)
+
+    scene = bpy.context.scene
+    assert bpy.ops.deformrt.bake_jellyfish(frame_start=1, frame_end=25, cycle_frames=12) == {"FINISHED"}
+    n, polys = _bell_polygons(jelly)
+    scene.frame_set(1)
+    rest = evaluated_points(jelly)[:n]
+    rest_volume = closed_volume(rest, polys)
+    radius = []
+    for frame in range(1, 26):
+        scene.frame_set(frame)
+        pts = evaluated_points(jelly)[:n]
+        assert abs(closed_volume(pts, polys) / rest_volume - 1) < 0.05, frame
+        radius.append(np.hypot(pts[:, 0], pts[:, 1]).max())
+    peak = 1 + int(round(12 * stroke["contraction"]))  # the frame of full contraction
+    assert radius[peak - 1] < radius[0] and radius[12] == pytest.approx(radius[0], rel=0.02)
+    scene.frame_set(13)  # one cycle on: the bell has swum the stored path, in its own scale
+    assert jelly.location.z == pytest.approx(stroke["path_m"] * 5.0, abs=1e-6)
+    keys = [k.name for k in jelly.data.shape_keys.key_blocks]
+    assert bpy.ops.deformrt.bake_jellyfish(frame_start=1, frame_end=25, cycle_frames=12) == {"FINISHED"}
+    assert [k.name for k in jelly.data.shape_keys.key_blocks] == keys  # baking again replaces
+
+
+def test_bake_without_a_stroke_uses_the_default_and_refuses_an_empty_range(jelly):
+    assert bpy.ops.deformrt.bake_jellyfish(frame_start=1, frame_end=4, cycle_frames=4) == {"FINISHED"}
+    assert "DeformRT Contracted" in jelly.data.shape_keys.key_blocks
+    with pytest.raises(RuntimeError, match="frame range is empty"):
+        bpy.ops.deformrt.bake_jellyfish(frame_start=5, frame_end=1)
+
+
+def test_jellyfish_operators_need_a_jellyfish(extension, clean_scene):
+    with pytest.raises(RuntimeError, match="Select a jellyfish"):
+        bpy.ops.deformrt.bake_jellyfish()
