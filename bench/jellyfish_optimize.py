@@ -66,8 +66,8 @@ def main():
         f"{pooled.seconds:.1f} s ({serial.seconds / pooled.seconds:.2f}x on 2 cores).",
         "",
         f"At the seed's resolution (100 x 100, 14 substeps) ga-sa seed 0 took {full_s:.0f} s for "
-        f"{full.evaluations} cycles ({full.stopped}); the seed: about 10 minutes per population on one 2008 "
-        f"core for its whole optimisation. Best: fitness {full.fitness:+.3f}, {describe(full.creature, seed_cfg)}, path "
+        f"{full.evaluations} cycles ({full.stopped}); the seed: about 10 minutes on one 2008 core for its "
+        f"whole optimisation. Best: fitness {full.fitness:+.3f}, {describe(full.creature, seed_cfg)}, path "
         f"{full.cycle.path_m / seed_cfg.bell.diameter:.4f} diameters per cycle "
         f"(default creature: {ref.fitness:+.3f}, {describe(default_creature(seed_cfg), seed_cfg)}, "
         f"{ref.path_m / seed_cfg.bell.diameter:.4f}).",
