@@ -146,22 +146,40 @@ def _set_key(obj, name, co, lo=-10.0, hi=10.0):
 
 
 def clear_bake(bell):
-    """Remove DeformRT's keys and keyframes from the bell and its parts (Basis stays if the
-    user had other keys)."""
+    """Remove DeformRT's keys and their keyframes from the bell and its parts, and the bell's
+    swim keyframes (Basis goes too unless the user has keys of their own)."""
     for obj in (bell, *bell.children):
         keys = obj.data.shape_keys if obj.type in {"MESH", "CURVE"} else None
-        if keys is not None:
-            if keys.animation_data:
-                keys.animation_data_clear()
-            for name in KEYS:
-                if name in keys.key_blocks:
-                    obj.shape_key_remove(keys.key_blocks[name])
-            if len(keys.key_blocks) == 1:
-                obj.shape_key_remove(keys.key_blocks[0])
-    if bell.animation_data and bell.animation_data.action:
-        fc = bell.animation_data.action.fcurves.find("location", index=2)
-        if fc is not None:
-            bell.animation_data.action.fcurves.remove(fc)
+        if keys is None:
+            continue
+        _remove_curves(keys, lambda f: any(f'"{name}"' in f.data_path for name in KEYS))
+        for name in KEYS:
+            if name in keys.key_blocks:
+                obj.shape_key_remove(keys.key_blocks[name])
+        if len(keys.key_blocks) == 1:
+            obj.shape_key_remove(keys.key_blocks[0])
+    _remove_curves(bell, lambda f: f.data_path == "location" and f.array_index == 2)
+
+
+def _fcurves(id_data):
+    """The F-curves animating ``id_data``: from Blender 4.4 one action can animate several
+    data-blocks (the bell and its shape keys share one), each in its own slot."""
+    ad = id_data.animation_data
+    if ad is None or ad.action is None:
+        return None
+    slot = getattr(ad, "action_slot", None)
+    if slot is None:
+        return ad.action.fcurves
+    from bpy_extras import anim_utils
+
+    bag = anim_utils.action_get_channelbag_for_slot(ad.action, slot)
+    return bag.fcurves if bag is not None else None
+
+
+def _remove_curves(id_data, match):
+    fcurves = _fcurves(id_data)
+    for fc in [f for f in (fcurves or ()) if match(f)]:
+        fcurves.remove(fc)
 
 
 def bake(scene, bell, frame_start, frame_end, cycle_frames, wobble=0.03, seed=0):

@@ -8,6 +8,7 @@ import json
 import bpy
 import numpy as np
 import pytest
+from bpy_extras import anim_utils
 
 
 def sub(ext, path):
@@ -92,6 +93,11 @@ def test_optimise_in_worker_processes_then_bake_a_swim_that_keeps_its_volume(ext
     keys = [k.name for k in jelly.data.shape_keys.key_blocks]
     assert bpy.ops.deformrt.bake_jellyfish(frame_start=1, frame_end=25, cycle_frames=12) == {"FINISHED"}
     assert [k.name for k in jelly.data.shape_keys.key_blocks] == keys  # baking again replaces
+    assert bpy.ops.deformrt.bake_jellyfish(frame_start=1, frame_end=5, cycle_frames=12) == {"FINISHED"}
+    # the longer bake's keyframes are gone, on the bell and on its shape keys
+    for owner in (jelly, jelly.data.shape_keys):
+        bag = anim_utils.action_get_channelbag_for_slot(owner.animation_data.action, owner.animation_data.action_slot)
+        assert bag.fcurves and all([int(k.co[0]) for k in fc.keyframe_points] == [1, 2, 3, 4, 5] for fc in bag.fcurves)
 
 
 def test_bake_without_a_stroke_uses_the_default_and_refuses_an_empty_range(jelly):
