@@ -132,7 +132,11 @@ def _points(obj):
         co = np.empty(len(obj.data.vertices) * 3)
         obj.data.vertices.foreach_get("co", co)
         return co.reshape(-1, 3)
-    pts = [np.array([p.co[:3] for p in s.points]) for s in obj.data.splines]
+    pts = []
+    for spline in obj.data.splines:
+        co = np.empty(len(spline.points) * 4)
+        spline.points.foreach_get("co", co)
+        pts.append(co.reshape(-1, 4)[:, :3])
     return np.vstack(pts)
 
 
@@ -201,7 +205,7 @@ def bake(scene, bell, frame_start, frame_end, cycle_frames, wobble=0.03, seed=0)
                                       jitter=jitter)
     clear_bake(bell)
     rest = _points(bell) / scale
-    bell_faces = [tuple(p.vertices) for p in bell.data.polygons if max(p.vertices) < n_bell]
+    bell_faces = bell3d.triangles([tuple(p.vertices) for p in bell.data.polygons if max(p.vertices) < n_bell])
     normals = np.zeros_like(rest)
     normals[:n_bell] = bell3d.vertex_normals(rest[:n_bell], bell_faces)
     thickness = shape.height - shape.inner_height

@@ -55,11 +55,19 @@ def revolve(section, segments):
     return verts, faces
 
 
+def triangles(faces) -> np.ndarray:
+    """(m, 3) vertex indices: polygons fan-triangulated; an (m, 3) array is returned as it is,
+    so callers that measure one surface many times triangulate it once."""
+    if isinstance(faces, np.ndarray) and faces.ndim == 2 and faces.shape[1] == 3:
+        return faces
+    return np.array([(f[0], f[k], f[k + 1]) for f in faces for k in range(1, len(f) - 1)], dtype=np.int64)
+
+
 def volume(verts, faces) -> float:
     """Signed volume enclosed by a closed polygon surface (divergence theorem over a fan
     triangulation of each face): positive when the normals point out."""
     v = np.asarray(verts, float)
-    tris = np.array([(f[0], f[k], f[k + 1]) for f in faces for k in range(1, len(f) - 1)])
+    tris = triangles(faces)
     a, b, c = v[tris[:, 0]], v[tris[:, 1]], v[tris[:, 2]]
     return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
 
@@ -143,7 +151,7 @@ class StrokeField:
 def vertex_normals(verts, faces) -> np.ndarray:
     """Area-weighted unit vertex normals of a polygon surface (fan-triangulated faces)."""
     v = np.asarray(verts, float)
-    tris = np.array([(f[0], f[k], f[k + 1]) for f in faces for k in range(1, len(f) - 1)])
+    tris = triangles(faces)
     n = np.cross(v[tris[:, 1]] - v[tris[:, 0]], v[tris[:, 2]] - v[tris[:, 0]])
     out = np.zeros_like(v)
     for k in range(3):
@@ -159,7 +167,8 @@ def volume_offset(moved, faces, normals, target) -> float:
     ts = np.array([-1.0, -0.5, 0.0, 0.5, 1.0])
     v = np.asarray(moved, float)
     scale = float(np.ptp(v, axis=0).max()) or 1.0
-    vols = [volume(v + t * scale * normals, faces) for t in ts]
+    tris = triangles(faces)
+    vols = [volume(v + t * scale * normals, tris) for t in ts]
     coeffs = np.polyfit(ts, vols, 3)  # exact: five samples of a cubic
     coeffs[-1] -= target
     roots = np.roots(coeffs)
