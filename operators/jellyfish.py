@@ -1,11 +1,10 @@
 """Add a jellyfish, optimise its stroke (in the background, Esc keeps the best so far), bake it."""
 
-import threading
-
 import bpy
 
 from ..addon import jellyfish
 from ..core.jellyfish import default_config, optimize
+from . import background
 
 METHODS = (
     ("ga-sa", "Genetic + Annealing", "The seed's genetic algorithm with simulated-annealing selection"),
@@ -92,13 +91,8 @@ class DEFORMRT_OT_optimize_jellyfish(_NeedsJellyfish, bpy.types.Operator):
             return self.execute(context)
         self._bell_name = jellyfish.jellyfish_of(context.active_object).name
         self._state = {"done": 0, "total": 1, "stop": False}
-        self._thread = threading.Thread(target=self._work, daemon=True)
-        self._thread.start()
-        wm = context.window_manager
-        self._timer = wm.event_timer_add(0.2, window=context.window)
-        wm.progress_begin(0, 100)
-        wm.modal_handler_add(self)
-        return {"RUNNING_MODAL"}
+        return background.start(self, context, self._work, "DeformRT: optimising (Esc keeps the best so far)",
+                                interval=0.2)
 
     def _work(self):
         def progress(done, total, best):
@@ -122,9 +116,7 @@ class DEFORMRT_OT_optimize_jellyfish(_NeedsJellyfish, bpy.types.Operator):
                 f"DeformRT: {st['done']}/{st['total']} cycles, best fitness {st.get('best', float('nan')):+.3f}"
                 + (" (stopping)" if st["stop"] else " (Esc keeps the best so far)"))
             return {"RUNNING_MODAL"}
-        wm.event_timer_remove(self._timer)
-        wm.progress_end()
-        context.workspace.status_text_set(None)
+        background.finish(self, context)
         if "error" in st:
             self.report({"ERROR"}, str(st["error"]))
             return {"CANCELLED"}

@@ -1,12 +1,12 @@
 """Resolve, clear and bake the layered garments of the scene."""
 
 import json
-import threading
 import time
 
 import bpy
 
 from ..addon import layer_resolve, results, scene_roles
+from . import background
 
 
 def _fail(op, exc):
@@ -59,14 +59,7 @@ class DEFORMRT_OT_resolve_layers(bpy.types.Operator):
         except (ValueError, RuntimeError) as exc:
             return _fail(self, exc)
         self._outcome = {}
-        self._thread = threading.Thread(target=self._work, daemon=True)
-        self._thread.start()
-        wm = context.window_manager
-        self._timer = wm.event_timer_add(0.1, window=context.window)
-        wm.progress_begin(0, 100)
-        wm.modal_handler_add(self)
-        context.workspace.status_text_set("DeformRT: resolving layers (Esc to cancel)")
-        return {"RUNNING_MODAL"}
+        return background.start(self, context, self._work, "DeformRT: resolving layers (Esc to cancel)")
 
     def _work(self):
         try:
@@ -74,15 +67,9 @@ class DEFORMRT_OT_resolve_layers(bpy.types.Operator):
         except (ValueError, RuntimeError) as exc:
             self._outcome["error"] = exc
 
-    def _stop(self, context):
-        wm = context.window_manager
-        wm.event_timer_remove(self._timer)
-        wm.progress_end()
-        context.workspace.status_text_set(None)
-
     def modal(self, context, event):
         if event.type == "ESC":
-            self._stop(context)
+            background.finish(self, context)
             # the worker's result is dropped when it ends: nothing was written yet
             self.report({"WARNING"}, "Resolve cancelled: the garments are unchanged")
             return {"CANCELLED"}
@@ -91,7 +78,7 @@ class DEFORMRT_OT_resolve_layers(bpy.types.Operator):
         if self._thread.is_alive():
             context.window_manager.progress_update(int(time.perf_counter() - self._job.t0) % 100)
             return {"RUNNING_MODAL"}
-        self._stop(context)
+        background.finish(self, context)
         if "error" in self._outcome:
             return _fail(self, self._outcome["error"])
         try:
