@@ -155,19 +155,19 @@ class Evaluator:
         pool = self._pool_executor()
         with _main_hidden():  # the pool spawns its workers inside submit()
             futures = {pool.submit(fn, item): k for k, item in enumerate(items)}
-        return self._collect(futures, on_done, stop, cancel=lambda f: f.cancel())
+        return self._collect(futures, on_done, stop)
 
     def _map_dask(self, fn, items, on_done, stop):
         futures = self._client.map(fn, items, pure=False)
         keyed = {f: k for k, f in enumerate(futures)}
-        return self._collect(keyed, on_done, stop, cancel=lambda f: f.cancel(), dask=True)
+        return self._collect(keyed, on_done, stop, dask=True)
 
-    def _collect(self, futures, on_done, stop, cancel, dask=False):
+    def _collect(self, futures, on_done, stop, dask=False):
         out, pending = {}, set(futures)
         while pending:
             if stop():
                 for f in pending:
-                    cancel(f)
+                    f.cancel()
                 raise Cancelled(out)
             if dask:
                 done = [f for f in pending if f.done()]
