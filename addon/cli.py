@@ -13,6 +13,7 @@ import bpy
 import numpy as np
 
 from ..core import __version__, rays
+from . import jellyfish_demo
 
 _handle = None
 
@@ -190,6 +191,7 @@ def build_parser() -> argparse.ArgumentParser:
     scenes.add_argument("--height", type=int, default=480)
     scenes.add_argument("--samples", type=int, default=16, help="Cycles samples per pixel")
     scenes.set_defaults(run=_cmd_scenes)
+    jellyfish_demo.add_parser(sub)
     return ap
 
 

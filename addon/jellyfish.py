@@ -6,7 +6,8 @@ The model is built in the 2D simulation's units (a 10 cm bell) times ``scale``. 
 shape keys to the bell, veins and tentacles: "DeformRT Contracted" (the full stroke; the
 deformation is linear in it, so its value is the stroke phase), "DeformRT Wobble" (a small
 random variation) and, on the bell, "DeformRT Volume" (a normal offset keyed per frame so
-the bell keeps its volume); "DeformRT Trail" stretches the tentacles while the bell speeds.
+the bell keeps its volume); "DeformRT Water 1..k" carry the tentacles with the water the
+simulated cycle pushes past them (core.tentacle_drift), a few shapes with keyed weights.
 """
 
 import json
@@ -17,10 +18,13 @@ import numpy as np
 from ..core import bell3d
 from ..core.bell import BellShape, Creature, phase
 from ..core.jellyfish import default_config, default_creature, simulate_cycle
+from ..core.tentacle_drift import water_drift
 from .mesh_io import fill_mesh
 
 PROP_MODEL, PROP_STROKE = "deformrt_jellyfish_model", "deformrt_jellyfish_stroke"
-KEYS = ("DeformRT Contracted", "DeformRT Wobble", "DeformRT Volume", "DeformRT Trail")
+KEYS = ("DeformRT Contracted", "DeformRT Wobble", "DeformRT Volume")
+WATER_KEY = "DeformRT Water {}"
+_OURS = "DeformRT "  # every key DeformRT bakes starts so
 
 
 def mesoglea_material():
@@ -115,16 +119,14 @@ def store_stroke(bell, result, config):
 
 
 def stroke_of(bell):
-    """(creature, path per cycle, speed per substep, period) stored on the bell, or the default
-    creature simulated now (coarse) when nothing was optimised yet; the last item says which."""
+    """(creature, the config it was found with, True) stored on the bell, or the default
+    creature on a coarse lattice and False when nothing was optimised yet."""
     if PROP_STROKE in bell:
         s = json.loads(bell[PROP_STROKE])
         creature = Creature(np.array(s["controls"]), np.array(s["destinations"]), s["contraction"])
-        return creature, s["path_m"], np.array(s["speed"]), s["period"], True
+        return creature, default_config(particles=s["particles"], period=s["period"]), True
     cfg = default_config(particles=60)
-    creature = default_creature(cfg)
-    cycle = simulate_cycle(creature, cfg)
-    return creature, cycle.path_m, cycle.speed, cfg.period, False
+    return default_creature(cfg), cfg, False
 
 
 def _points(obj):
@@ -156,10 +158,9 @@ def clear_bake(bell):
         keys = obj.data.shape_keys if obj.type in {"MESH", "CURVE"} else None
         if keys is None:
             continue
-        _remove_curves(keys, lambda f: any(f'"{name}"' in f.data_path for name in KEYS))
-        for name in KEYS:
-            if name in keys.key_blocks:
-                obj.shape_key_remove(keys.key_blocks[name])
+        _remove_curves(keys, lambda f: f'key_blocks["{_OURS}' in f.data_path)
+        for block in [b for b in keys.key_blocks if b.name.startswith(_OURS)]:
+            obj.shape_key_remove(block)
         if len(keys.key_blocks) == 1:
             obj.shape_key_remove(keys.key_blocks[0])
     _remove_curves(bell, lambda f: f.data_path == "location" and f.array_index == 2)
@@ -186,18 +187,37 @@ def _remove_curves(id_data, match):
         fcurves.remove(fc)
 
 
-def bake(scene, bell, frame_start, frame_end, cycle_frames, wobble=0.03, seed=0):
+def _water_keys(obj, drift, scale):
+    """Shape keys for the drift's shapes on a curve's points (radial and axial turned to the
+    point's angle); each shape is sized so its keyed value, as simulated, stays within [-1, 1]."""
+    p = _points(obj) / scale
+    phi = np.arctan2(p[:, 1], p[:, 0])
+    peaks = np.maximum(np.abs(drift.weights).max(axis=1), 1e-300)
+    for k, (shape, peak) in enumerate(zip(drift.shapes, peaks, strict=True)):
+        move = np.column_stack([shape[:, 0] * np.cos(phi), shape[:, 0] * np.sin(phi), shape[:, 1]]) * peak
+        _set_key(obj, WATER_KEY.format(k + 1), (p + move) * scale)
+    return peaks
+
+
+def bake(scene, bell, frame_start, frame_end, cycle_frames, wobble=0.03, seed=0, water=1.0):
     """Keys and keyframes for the stored stroke from frame_start to frame_end, one cycle
-    every ``cycle_frames`` frames; returns a summary line."""
+    every ``cycle_frames`` frames; ``water`` scales the tentacles' drift with the water (1 is
+    as simulated). Returns a summary line."""
     if frame_end < frame_start:
         raise ValueError(f"the frame range is empty ({frame_start}-{frame_end})")
     if cycle_frames < 2:
         raise ValueError("a cycle needs at least 2 frames")
+    if not (np.isfinite(water) and water >= 0):
+        raise ValueError(f"the water drift scale must be >= 0, got {water}")
     info = json.loads(bell[PROP_MODEL])
     scale, n_bell = info["scale"], info["bell_vertices"]
-    creature, path_m, speed, period, optimised = stroke_of(bell)
-    shape = BellShape()
-    box_half = 0.5 * default_config().box
+    creature, config, optimised = stroke_of(bell)
+    # the stored stroke is replayed (deterministic) for the water its tentacles move in
+    cycle = simulate_cycle(creature, config, sample_fields=True)
+    if not np.isfinite(cycle.fitness):
+        raise ValueError(f"the stored stroke cannot swim: {cycle.reason}")
+    shape = config.bell
+    box_half = 0.5 * config.box
     field = bell3d.StrokeField(shape, creature, box_half)
     rng = np.random.default_rng(seed)
     jitter = wobble * 0.5 * shape.diameter * rng.standard_normal((field.control_count, 3))
@@ -213,22 +233,21 @@ def bake(scene, bell, frame_start, frame_end, cycle_frames, wobble=0.03, seed=0)
     _set_key(bell, KEYS[0], (rest + moved) * scale)
     _set_key(bell, KEYS[1], (rest + wob) * scale)
     _set_key(bell, KEYS[2], (rest + thickness * normals) * scale)
-    parts = []
+    parts, drifts = [], {}
     for child in bell.children:
         if child.type != "CURVE":
             continue
         p = _points(child) / scale
         _set_key(child, KEYS[0], (p + field(p)) * scale)
         _set_key(child, KEYS[1], (p + wobble_field(p)) * scale)
-        # tentacles trail: points further from the margin lag more (stretched downwards)
-        trail = np.zeros_like(p)
-        trail[:, 2] = np.minimum(p[:, 2], 0.0) * 0.25
-        _set_key(child, KEYS[3], (p + trail) * scale, lo=0.0, hi=1.0)
+        if water > 0 and (p[:, 2] < 0).any():  # tentacles hang below the margin, veins do not
+            drift = water_drift(cycle, config, np.column_stack([np.hypot(p[:, 0], p[:, 1]), p[:, 2]]))
+            drifts[child.name] = (drift, _water_keys(child, drift, scale))
         parts.append(child)
     rest_volume = bell3d.volume(rest[:n_bell], bell_faces)
+    speed = cycle.speed
     times = np.arange(1, len(speed) + 1) / len(speed)
-    travelled = np.concatenate([[0.0], np.cumsum(speed) * period / len(speed)])
-    peak = max(float(np.abs(speed).max()), 1e-12)
+    travelled = np.concatenate([[0.0], cycle.swum])
     z0 = bell.location.z
     for frame in range(frame_start, frame_end + 1):
         cycles, tau = divmod((frame - frame_start) / cycle_frames, 1.0)
@@ -236,19 +255,21 @@ def bake(scene, bell, frame_start, frame_end, cycle_frames, wobble=0.03, seed=0)
         w = 0.5 * (np.sin(2 * np.pi * (frame - frame_start) / (1.7 * cycle_frames) + seed) + 1.0)
         now = rest[:n_bell] + s * moved[:n_bell] + w * wob[:n_bell]
         offset = bell3d.volume_offset(now, bell_faces, normals[:n_bell], rest_volume) / thickness
-        sp = float(np.interp(tau, np.concatenate([[0.0], times]), np.concatenate([[0.0], speed])))
-        y = cycles * path_m + float(np.interp(tau, np.concatenate([[0.0], times]), travelled))
-        for obj, values in ((bell, (s, w, offset, None)),
-                            *((c, (s, w, None, max(sp, 0.0) / peak)) for c in parts)):
+        y = cycles * cycle.path_m + float(np.interp(tau, np.concatenate([[0.0], times]), travelled))
+        for obj, values in ((bell, {KEYS[0]: s, KEYS[1]: w, KEYS[2]: offset}),
+                            *((c, {KEYS[0]: s, KEYS[1]: w}) for c in parts)):
+            if obj.name in drifts:
+                drift, peaks = drifts[obj.name]
+                for k, v in enumerate(water * drift.weights_at(tau) / peaks):
+                    values[WATER_KEY.format(k + 1)] = float(v)
             blocks = obj.data.shape_keys.key_blocks
-            for name, v in zip(KEYS, values, strict=True):
-                if v is not None:
-                    blocks[name].value = v
-                    blocks[name].keyframe_insert("value", frame=frame)
+            for name, v in values.items():
+                blocks[name].value = v
+                blocks[name].keyframe_insert("value", frame=frame)
         bell.location.z = z0 + y * scale
         bell.keyframe_insert("location", index=2, frame=frame)
     bell.location.z = z0
     scene.frame_set(scene.frame_current)
     source = "the optimised stroke" if optimised else "the default stroke (nothing optimised yet)"
     return (f"Baked {frame_end - frame_start + 1} frames of {source}: "
-            f"{path_m / shape.diameter:.3f} bell diameters per {cycle_frames}-frame cycle")
+            f"{cycle.path_m / shape.diameter:.3f} bell diameters per {cycle_frames}-frame cycle")

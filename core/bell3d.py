@@ -88,9 +88,10 @@ class BellModel:
 
 
 def build(shape: BellShape, segments=48, per_curve=16, velum=0.12, veins=8, tentacles=16, tentacle_length=1.5,
-          tentacle_points=16) -> BellModel:
+          tentacle_points=24, sway=0.12, seed=0) -> BellModel:
     """The bell (closed), an inward velum ring at the margin, radial canals on the
-    subumbrella and tentacles ``tentacle_length`` diameters long, in the shape's units."""
+    subumbrella and tentacles ``tentacle_length`` diameters long, in the shape's units. The
+    tentacles sway sideways by up to ``sway`` radii at their ends, each in its own phase."""
     a = 0.5 * shape.diameter
     sec, margin = profile(shape, per_curve)
     verts, faces = revolve(sec, segments)
@@ -114,10 +115,15 @@ def build(shape: BellShape, segments=48, per_curve=16, velum=0.12, veins=8, tent
         canals.append(np.column_stack([r * np.cos(phi), r * np.sin(phi), zc]))
     hanging = []
     s = np.linspace(0.0, 1.0, tentacle_points)
+    phases = np.random.default_rng(seed).uniform(0.0, 2 * np.pi, (max(tentacles, 1), 2))
     for k in range(tentacles):
         phi = 2 * np.pi * k / max(tentacles, 1)
-        r = a * (0.97 + 0.05 * s)
-        hanging.append(np.column_stack([r * np.cos(phi), r * np.sin(phi), -tentacle_length * shape.diameter * s]))
+        # the root hangs straight from the margin; the wave grows down the tentacle
+        wave = sway * a * s**1.5
+        r = a * (0.97 + 0.05 * s) + wave * np.sin(2 * np.pi * 1.1 * s + phases[k, 0])
+        side = wave * np.sin(2 * np.pi * 0.8 * s + phases[k, 1])
+        x, y = r * np.cos(phi) - side * np.sin(phi), r * np.sin(phi) + side * np.cos(phi)
+        hanging.append(np.column_stack([x, y, -tentacle_length * shape.diameter * s]))
     return BellModel(verts, faces, n_bell, canals, hanging)
 
 

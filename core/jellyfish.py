@@ -67,6 +67,7 @@ class CycleResult:
     reason: str | None = None  # why the creature was refused (fitness -inf)
     timings: dict = field(default_factory=dict)
     speed: np.ndarray | None = None  # bell speed at the end of each substep
+    swum: np.ndarray | None = None  # distance swum by the end of each substep
     fields: list = field(default_factory=list)  # sampled (t, u, vorticity, bell mask)
 
 
@@ -200,19 +201,20 @@ def simulate_cycle(creature: Creature, config: JellyfishConfig | None = None, sa
     reach = float(np.abs(bell_map.displacement).max())
     peak_rate = 0.5 * np.pi / min(creature.contraction, 1.0 - creature.contraction) / config.period
     split = max(1, int(np.ceil(dt * reach * peak_rate / (config.cfl * fluid.h))))
-    loss, speeds, fields, inner = 0.0, [], [], 0
+    loss, speeds, swum, fields, inner = 0.0, [], [], [], 0
     for k in range(config.substeps):
         for _ in range(split):
             inner += fluid.step(dt / split, forcing)
         fluid_part = ~forcing.mask
         loss += float((fluid.u[fluid_part] ** 2).sum()) * fluid.h**2
         speeds.append(forcing.speed)
+        swum.append(forcing.y)
         if sample_fields:
             fields.append(((k + 1) * dt, fluid.u.copy(), fluid.vorticity(), forcing.mask.copy()))
     timings = {**fluid.timings, "inner_steps": inner, "total_s": time.perf_counter() - t0}
     return CycleResult(forcing.y, energy_b, loss,
                        fitness(forcing.y, energy_b, loss, config, scales),
-                       None, timings, np.array(speeds), fields)
+                       None, timings, np.array(speeds), np.array(swum), fields)
 
 
 @dataclass(frozen=True)

@@ -149,12 +149,15 @@ class DEFORMRT_OT_bake_jellyfish(_NeedsJellyfish, bpy.types.Operator):
     wobble: bpy.props.FloatProperty(name="Wobble", description="Random variation, share of the radius",
                                     default=0.03, min=0.0, max=0.3)
     seed: bpy.props.IntProperty(name="Seed", default=0, min=0)
+    water: bpy.props.FloatProperty(name="Water Drag", description="How far the tentacles go with the water the "
+                                   "stroke pushes past them (1 is as simulated)", default=1.0, min=0.0,
+                                   soft_max=10.0)
 
     def execute(self, context):
         bell = jellyfish.jellyfish_of(context.active_object)
         try:
             message = jellyfish.bake(context.scene, bell, self.frame_start, self.frame_end, self.cycle_frames,
-                                     self.wobble, self.seed)
+                                     self.wobble, self.seed, self.water)
         except (ValueError, RuntimeError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}

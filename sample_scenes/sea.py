@@ -20,19 +20,19 @@ def build():
     # sea water: a box of scattering, absorbing medium (a world volume would swallow the sun)
     bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, 0.0))
     water = bpy.context.active_object
-    water.name, water.scale = "SeaWater", (12.0, 12.0, 3.2)
+    water.name, water.scale = "SeaWater", (60.0, 60.0, 8.0)  # wider than the floor: no dry horizon
     mat = bpy.data.materials.new("SeaWater")
     mat.use_nodes = True
     nodes, links = mat.node_tree.nodes, mat.node_tree.links
     nodes.remove(nodes["Principled BSDF"])
     volume = nodes.new("ShaderNodeVolumePrincipled")
-    volume.inputs["Color"].default_value = (0.3, 0.7, 0.8, 1.0)
-    volume.inputs["Density"].default_value = 0.12
+    volume.inputs["Color"].default_value = (0.08, 0.3, 0.42, 1.0)
+    volume.inputs["Density"].default_value = 0.35
     volume.inputs["Absorption Color"].default_value = (0.35, 0.75, 0.85, 1.0)
     links.new(volume.outputs["Volume"], nodes["Material Output"].inputs["Volume"])
     water.data.materials.append(mat)
     water.visible_shadow = False
-    bpy.ops.mesh.primitive_plane_add(size=20.0, location=(0.0, 0.0, -1.5))
+    bpy.ops.mesh.primitive_plane_add(size=40.0, location=(0.0, 0.0, -3.5))
     floor = bpy.context.active_object
     floor.name = "SeaFloor"
     studio.material(floor, "Sand", (0.55, 0.48, 0.35, 1.0), roughness=0.9)

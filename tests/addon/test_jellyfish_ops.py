@@ -110,3 +110,57 @@ def test_bake_without_a_stroke_uses_the_default_and_refuses_an_empty_range(jelly
 def test_jellyfish_operators_need_a_jellyfish(extension, clean_scene):
     with pytest.raises(RuntimeError, match="Select a jellyfish"):
         bpy.ops.deformrt.bake_jellyfish()
+
+
+def _key_co(block):
+    co = np.empty(len(block.data) * 3)
+    block.data.foreach_get("co", co)
+    return co.reshape(-1, 3)
+
+
+def test_tentacles_go_with_the_simulated_water(extension, jelly):
+    core_jf, drift_mod = sub(extension, "core.jellyfish"), sub(extension, "core.tentacle_drift")
+    scene = bpy.context.scene
+    assert bpy.ops.deformrt.bake_jellyfish(frame_start=1, frame_end=15, cycle_frames=14) == {"FINISHED"}
+    tentacles = next(c for c in jelly.children if c.name.endswith("Tentacles"))
+    veins = next(c for c in jelly.children if c.name.endswith("Veins"))
+    assert not any(b.name.startswith("DeformRT Water") for b in veins.data.shape_keys.key_blocks)
+    blocks = tentacles.data.shape_keys.key_blocks
+    water = [b for b in blocks if b.name.startswith("DeformRT Water")]
+    basis = _key_co(blocks["Basis"]) / 5.0  # a 0.5 m bell is the 10 cm model times 5
+    r, phi = np.hypot(basis[:, 0], basis[:, 1]), np.arctan2(basis[:, 1], basis[:, 0])
+    # nothing optimised: the bake replays the default creature on the coarse lattice
+    cfg = core_jf.default_config(particles=60)
+    cycle = core_jf.simulate_cycle(core_jf.default_creature(cfg), cfg, sample_fields=True)
+    expect = drift_mod.water_drift(cycle, cfg, np.column_stack([r, basis[:, 2]]))
+    assert 1 <= len(water) <= 3
+    for k in range(cfg.substeps):
+        scene.frame_set(k + 2)  # frame k + 2 is phase (k + 1) / 14, the end of substep k
+        got = sum(b.value * (_key_co(b) / 5.0 - basis) for b in water)
+        radial = got[:, 0] * np.cos(phi) + got[:, 1] * np.sin(phi)
+        sideways = -got[:, 0] * np.sin(phi) + got[:, 1] * np.cos(phi)
+        want = expect.at(expect.times[k])  # its few shapes: core's test bounds what they leave out
+        np.testing.assert_allclose(radial, want[:, 0], atol=1e-7)
+        np.testing.assert_allclose(got[:, 2], want[:, 1], atol=1e-7)
+        np.testing.assert_allclose(sideways, 0.0, atol=1e-7)
+    # while the bell swims fastest the water streams past its tentacles: their ends trail
+    fastest = int(np.argmax(cycle.speed))
+    scene.frame_set(fastest + 2)
+    tips = basis[:, 2] < -0.1
+    assert (sum(b.value * (_key_co(b)[:, 2] / 5.0 - basis[:, 2]) for b in water)[tips] < 0).all()
+    assert bpy.ops.deformrt.bake_jellyfish(frame_start=1, frame_end=15, cycle_frames=14, water=0.0) == {"FINISHED"}
+    assert not any(b.name.startswith("DeformRT Water") for b in tentacles.data.shape_keys.key_blocks)
+
+
+def test_jellyfish_command_optimises_bakes_and_renders_a_contact_sheet(extension, tmp_path):
+    args = ["jellyfish", "--out", str(tmp_path), "--particles", "24", "--population", "2", "--generations", "1",
+            "--cycle-frames", "8", "--width", "40", "--height", "56", "--samples", "1"]
+    assert extension.addon.cli.main(args) == 0
+    img = bpy.data.images.load(str(tmp_path / "contact_sheet.png"))
+    assert tuple(img.size) == (4 * 40, 2 * 56)
+    px = np.empty(img.size[0] * img.size[1] * 4, np.float32)
+    img.pixels.foreach_get(px)
+    tiles = px.reshape(2, 56, 4, 40, 4)  # rows of tiles, pixel rows, tiles, pixel columns, RGBA
+    assert np.abs(tiles[1, :, 0] - tiles[0, :, 0]).mean() > 1e-3  # the bell moved between the shots
+    table = (tmp_path / "metrics.md").read_text()
+    assert "| optimised |" in table and "4 cycles on a 24x24" in table

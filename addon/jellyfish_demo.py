@@ -1,0 +1,159 @@
+"""``deformrt jellyfish``: the seed's jellyfish run end to end on the bundled sea scene.
+
+Optimise the stroke on a small budget (deformrt.optimize_jellyfish), bake it
+(deformrt.bake_jellyfish), render one swimming cycle to an 8-frame contact sheet (like the
+seed's Fig. 3.2) and write what was measured to metrics.md.
+"""
+
+import json
+import time
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+from ..core import bell3d
+from ..core.jellyfish import default_config, default_creature, fitness, reference_scales, simulate_cycle
+from . import jellyfish
+
+
+def contact_sheet(paths, out, columns):
+    """Tile equally sized PNGs row by row, first at the top left."""
+    tiles = []
+    for path in paths:
+        img = bpy.data.images.load(str(path))
+        w, h = img.size
+        px = np.empty(w * h * 4, np.float32)
+        img.pixels.foreach_get(px)
+        tiles.append(px.reshape(h, w, 4)[::-1])  # Blender's rows run bottom-up
+        bpy.data.images.remove(img)
+    rows = [np.concatenate(tiles[i:i + columns], axis=1) for i in range(0, len(tiles), columns)]
+    sheet = np.concatenate(rows, axis=0)
+    h, w = sheet.shape[:2]
+    img = bpy.data.images.new("DeformRT contact sheet", w, h, alpha=True)
+    img.pixels.foreach_set(np.ascontiguousarray(sheet[::-1]).ravel())
+    img.filepath_raw, img.file_format = str(out), "PNG"
+    img.save()
+    bpy.data.images.remove(img)
+
+
+def _bell_volume(bell, n, tris):
+    ev = bell.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    mesh = ev.to_mesh()
+    try:
+        co = np.empty(len(mesh.vertices) * 3)
+        mesh.vertices.foreach_get("co", co)
+    finally:
+        ev.to_mesh_clear()
+    return bell3d.volume(co.reshape(-1, 3)[:n], tris)
+
+
+def run(args) -> int:
+    from ..sample_scenes import sea, studio
+
+    out = Path(args.out).resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    anchor = sea.build()
+    scene = bpy.context.scene
+    scene.cursor.location = anchor.location
+    if bpy.ops.deformrt.add_jellyfish(size=args.size, tentacles=16) != {"FINISHED"}:
+        raise RuntimeError("deformrt.add_jellyfish did not finish")
+    bell = bpy.context.active_object
+    cam = scene.camera
+    # the bell and its tentacles from the side, looking a little up (away from the sea floor)
+    cam.location = (0.0, -4.6 * args.size, -0.3 * args.size)
+    cam.rotation_euler = (np.radians(88.0), 0.0, 0.0)
+    cam.data.lens = 50
+
+    config = default_config(particles=args.particles)
+    t0 = time.perf_counter()
+    before = simulate_cycle(default_creature(config), config)
+    default_s = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    done = bpy.ops.deformrt.optimize_jellyfish(method=args.method, particles=args.particles,
+                                               population=args.population, generations=args.generations,
+                                               seed=args.seed)
+    if done != {"FINISHED"}:
+        raise RuntimeError("deformrt.optimize_jellyfish did not finish")
+    optimise_s = time.perf_counter() - t0
+    stroke = json.loads(bell[jellyfish.PROP_STROKE])
+    creature, _, _ = jellyfish.stroke_of(bell)
+    after = simulate_cycle(creature, config)
+
+    frames = args.cycle_frames
+    t0 = time.perf_counter()
+    if bpy.ops.deformrt.bake_jellyfish(frame_start=1, frame_end=2 * frames + 1, cycle_frames=frames) != {"FINISHED"}:
+        raise RuntimeError("deformrt.bake_jellyfish did not finish")
+    bake_s = time.perf_counter() - t0
+    n = json.loads(bell[jellyfish.PROP_MODEL])["bell_vertices"]
+    tris = bell3d.triangles([tuple(p.vertices) for p in bell.data.polygons if max(p.vertices) < n])
+    scene.frame_set(1)
+    rest_volume = _bell_volume(bell, n, tris)
+    volume_err = []
+    for f in range(1, frames + 1):
+        scene.frame_set(f)
+        volume_err.append(abs(_bell_volume(bell, n, tris) / rest_volume - 1))
+
+    # one cycle in 8 pictures; the camera rides along so the bell stays in frame
+    shots = [1 + round(k * frames / 8) for k in range(8)]
+    paths, render_s = [], 0.0
+    z_cam = cam.location.z
+    for k, f in enumerate(shots):
+        scene.frame_set(f)
+        cam.location.z = z_cam + bell.matrix_world.translation.z - anchor.location.z
+        path = out / f"frame_{k + 1}.png"
+        render_s += studio.render_cycles(scene, path, resolution=(args.width, args.height), samples=args.samples)
+        paths.append(path)
+    contact_sheet(paths, out / "contact_sheet.png", columns=4)
+
+    d = config.bell.diameter
+    rows = [
+        "# DeformRT jellyfish demo",
+        "",
+        f"Stroke search: {stroke['method']}, {stroke['evaluations']} cycles on a {args.particles}x{args.particles} "
+        f"particle lattice ({stroke['stopped']}).",
+        "",
+        "| stroke | fitness (eq. 3.14 over the default's terms) | path (bell diameters per cycle) "
+        "| bending energy | energy loss | contraction share |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
+    scales = reference_scales(config)
+    for name, c, cr in (("default (seed's Aurelia)", before, default_creature(config)), ("optimised", after, creature)):
+        score = fitness(c.path_m, c.bending_energy, c.energy_loss, config, scales)
+        rows.append(f"| {name} | {score:+.3f} | {c.path_m / d:.4f} "
+                    f"| {c.bending_energy:.3g} | {c.energy_loss:.3g} | {cr.contraction:.2f} |")
+    rows += [
+        "",
+        "| step | seconds |",
+        "|---|---:|",
+        f"| one cycle of the default stroke | {default_s:.2f} |",
+        f"| deformrt.optimize_jellyfish | {optimise_s:.2f} |",
+        f"| deformrt.bake_jellyfish ({2 * frames + 1} frames) | {bake_s:.2f} |",
+        f"| Cycles, 8 frames {args.width}x{args.height} at {args.samples} spp | {render_s:.1f} |",
+        "",
+        f"Bell volume over the baked cycle: largest change {100 * max(volume_err):.3f}% of rest.",
+        "",
+        f"contact_sheet.png: frames {', '.join(map(str, shots))} of a {frames}-frame cycle, left to right, top to "
+        "bottom (contraction, then relaxation).",
+    ]
+    table = "\n".join(rows)
+    (out / "metrics.md").write_text(table + "\n")
+    print(table)
+    print(f"\nwrote {out / 'contact_sheet.png'} and {out / 'metrics.md'}")
+    return 0
+
+
+def add_parser(sub):
+    p = sub.add_parser("jellyfish", help="optimise, bake and render the jellyfish on the sea scene")
+    p.add_argument("--out", default="out/jellyfish", help="folder for frames, contact_sheet.png and metrics.md")
+    p.add_argument("--method", choices=("ga-sa", "de", "random"), default="ga-sa")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--particles", type=int, default=60, help="fluid particles per side for the search")
+    p.add_argument("--population", type=int, default=8)
+    p.add_argument("--generations", type=int, default=4)
+    p.add_argument("--size", type=float, default=0.3, help="bell diameter in metres")
+    p.add_argument("--cycle-frames", type=int, default=24)
+    p.add_argument("--width", type=int, default=240)
+    p.add_argument("--height", type=int, default=320)
+    p.add_argument("--samples", type=int, default=16)
+    p.set_defaults(run=run)
