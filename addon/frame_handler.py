@@ -18,7 +18,7 @@ def on_frame_change(scene, _depsgraph=None):
         return
     _busy = True  # reading the scene re-evaluates it; never re-enter
     try:
-        layer_resolve.resolve_scene(scene, reuse_correspondence=True)
+        correct_frame(scene)
     except (ValueError, RuntimeError) as exc:
         # a handler cannot report to the user: say it once in the panel and the console
         message = f"Resolve on frame change stopped at frame {scene.frame_current}: {exc}"
@@ -27,6 +27,11 @@ def on_frame_change(scene, _depsgraph=None):
         scene.deformrt.last_report = json.dumps({"message": message})
     finally:
         _busy = False
+
+
+def correct_frame(scene):
+    """The layering of the current frame (what the handler runs); returns its summary."""
+    return layer_resolve.resolve_scene(scene, reuse_correspondence=True)
 
 
 def register():

@@ -220,6 +220,8 @@ def prepare_resolve(scene, reuse_correspondence=False) -> ResolveJob:
     probe = probe_distances(settings, parts is not None)
     if probe is not None:
         params["probe_distance"] = probe
+    if settings.scheme == "NONE":
+        params["segment_links"] = True  # the body's separate pieces are still one body
     if parts is not None:
         params.update(body_segments=parts, scheme=settings.scheme)
         if any(p is not None for p in g_parts):

@@ -104,8 +104,9 @@ def ga_sa(objective, x0, rng, population=10, generations=30, g_offset=5.0, cross
             if agreed(fit, tolerance):
                 return track.result(history, "agreement")
             t = temperature(g, g_offset, scale)
-            order = rng.permutation(population)
-            a, b = order[0::2], order[1::2]
+            # parents by Boltzmann selection at the same temperature: fitter creatures breed
+            # more, more so as T falls (pairing at random gave no pressure towards the best)
+            a, b = _boltzmann_pairs(fit, t, population // 2, rng)
             mix = rng.random((len(a), d))
             blend = rng.random((len(a), 1)) < crossover
             lo, hi = np.minimum(pop[a], pop[b]), np.maximum(pop[a], pop[b])
@@ -116,15 +117,30 @@ def ga_sa(objective, x0, rng, population=10, generations=30, g_offset=5.0, cross
             # mutation: a gene replaced by a fresh random value
             mutate = rng.random(children.shape) < mutation
             children[mutate] = rng.random(int(mutate.sum()))
-            parents = np.concatenate([a, b])
+            # each child then meets one member (a random order) in a Boltzmann trial
+            slots = rng.permutation(population)
             f_child = track(children)
-            win = accept(f_child, fit[parents], t, rng)
-            pop[parents[win]] = children[win]
-            fit[parents[win]] = f_child[win]
+            win = accept(f_child, fit[slots], t, rng)
+            pop[slots[win]] = children[win]
+            fit[slots[win]] = f_child[win]
             history.append((track.evaluations, track.best_f, _mean(fit)))
     except Stop:
         return track.result(history, "cancelled")
     return track.result(history, "generations")
+
+
+def _boltzmann_pairs(fit, t, pairs, rng):
+    """Parent pairs drawn with probability proportional to exp(f / T); infeasible never."""
+    f = np.asarray(fit, float)
+    finite = np.isfinite(f)
+    if not finite.any():
+        p = np.full(len(f), 1.0 / len(f))
+    else:
+        w = np.where(finite, np.exp(np.minimum((f - f[finite].max()) / t, 0.0)), 0.0)
+        p = w / w.sum()
+    a = rng.choice(len(f), pairs, p=p)
+    b = rng.choice(len(f), pairs, p=p)
+    return a, b
 
 
 def random_search(objective, dim, rng, budget, batch=10, stop=None):

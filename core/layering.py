@@ -289,7 +289,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
             skirt segment, traced against the torso and both legs, with normals from the
             convex hull of those parts.
         segment_links: (S, S) bool, which segments' triangles each segment's rays meet;
-            default each segment itself (and the skirt links of the scheme).
+            default each segment itself (and the skirt links of the scheme); True links all.
         garment_segments: list of per-vertex segment arrays (or None) overriding the nearest-body rule.
         global_normals: list of per-vertex (n,3) arrays (or None) overriding the body's normals.
         correspondence: list of BodyCorrespondence (or None) from an earlier call on the same
@@ -342,6 +342,8 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         links = scheme.links() if scheme is not None else np.eye(n_seg, dtype=bool)
     else:
         links = np.asarray(links, dtype=bool)
+        if links.ndim == 0:  # True: every part meets every other (a whole body of separate pieces)
+            links = np.full((n_seg, n_seg), bool(links))
         if links.shape != (n_seg, n_seg):
             raise ValueError(f"segment_links must be ({n_seg}, {n_seg}) booleans, got shape {links.shape}")
         links = links | links.T | np.eye(n_seg, dtype=bool)

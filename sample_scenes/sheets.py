@@ -27,8 +27,9 @@ def grid(n_side: int, size: float):
 
 
 def build(layers: int = 2, per_sheet: int = 2048, frames: int = 120, seed: int = 0):
-    """Replace the scene's contents; returns (sheets, colliders). Sheets are layered 1..n
-    bottom to top (the lowest sheet is the innermost layer)."""
+    """Replace the scene's contents; returns (sheets, [stage]). Sheets are layered 1..n
+    bottom to top (the lowest sheet is the innermost layer); the stage (primitives and
+    floor in one object) is the body."""
     if not 1 <= layers <= 4:
         raise ValueError(f"layers must be 1-4 (the seed's range), got {layers}")
     n_side = int(round(np.sqrt(per_sheet / 2)))
@@ -51,14 +52,23 @@ def build(layers: int = 2, per_sheet: int = 2048, frames: int = 120, seed: int =
         bpy.ops.object.shade_smooth()
         colliders.append(obj)
     for obj in colliders:
-        obj.modifiers.new("Collision", "COLLISION")
-        obj.collision.thickness_outer = 0.005
         studio.material(obj, "Primitive", (0.7, 0.7, 0.72, 1.0))
     bpy.ops.mesh.primitive_plane_add(size=4.0)
     floor = bpy.context.active_object
     floor.name = "Floor"
-    floor.modifiers.new("Collision", "COLLISION")
     studio.material(floor, "Floor", (0.35, 0.35, 0.37, 1.0))
+    # one "Stage" object (primitives and floor) the cloth collides with and DeformRT takes
+    # as the body the sheets are layered over: every sheet point meets every sheet above it
+    with bpy.context.temp_override(active_object=floor, selected_editable_objects=[floor, *colliders]):
+        bpy.ops.object.join()
+    stage = floor
+    stage.name = "Stage"
+    stage.modifiers.new("Collision", "COLLISION")
+    stage.collision.thickness_outer = 0.005
+    stage.deformrt.role, stage.deformrt.layer = "BODY", 0
+    scene.deformrt.scheme = "NONE"
+    scene.deformrt.probe_distance = 0.04  # the sheets fall a few centimetres apart
+    colliders = [stage]
     sheets = []
     v, f = grid(n_side, 1.4)
     for k in range(layers):

@@ -66,6 +66,13 @@ def test_sleeve_next_to_a_torso_is_not_pushed_into_it():
     # a single probe distance as long as the torso radius would reach through the arm
     res = resolve_layers(body, [sleeve, jacket], probe_distance=0.15)
     assert res.moved[0].any()
+    # segment_links=True (the panel's Whole Body) makes the separate pieces one body again
+    whole = resolve_layers(body, [sleeve, jacket], probe_distance=0.15, body_segments=np.zeros_like(body_seg))
+    linked = resolve_layers(body, [sleeve, jacket], probe_distance=0.15, segment_links=True)
+    parted = resolve_layers(body, [sleeve, jacket], probe_distance=0.15, body_segments=body_seg)
+    np.testing.assert_array_equal(linked.moved[0], whole.moved[0])
+    moving = [int(np.abs(r.moved[0]).sum(1).astype(bool).sum()) for r in (parted, linked)]
+    assert moving[0] < moving[1]
 
 
 def test_fold_with_flipping_normals_goes_behind_a_flat_layer():
