@@ -27,7 +27,7 @@ from .correspondence import (
 from .metrics import crossing_edges, unique_edges
 from .rays import RayScene
 from .segmentation import get_scheme, hull_normals, is_skirt, skirt_segments
-from .topology import boundary_vertices, mean_edge_length, ring_distance, vertex_adjacency
+from .topology import mean_edge_length, ring_distance, topology_of, vertex_adjacency
 
 
 @dataclass
@@ -119,8 +119,10 @@ class _SegmentScenes:
 
     def bounds_overlap(self, segment, lo, hi):
         if segment not in self._bounds:
-            pts = self.vertices[self.faces[self.ids(segment)]].reshape(-1, 3)
-            self._bounds[segment] = (pts.min(0), pts.max(0)) if len(pts) else None
+            ids = self.ids(segment)
+            # all of the layer: its vertices' box (at least the faces', never smaller)
+            pts = self.vertices if len(ids) == len(self.faces) else self.vertices[self.faces[ids]].reshape(-1, 3)
+            self._bounds[segment] = (pts.min(0), pts.max(0)) if len(pts) and len(ids) else None
         box = self._bounds[segment]
         return box is not None and bool((box[0] <= hi).all() and (box[1] >= lo).all())
 
@@ -347,6 +349,8 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         if links.shape != (n_seg, n_seg):
             raise ValueError(f"segment_links must be ({n_seg}, {n_seg}) booleans, got shape {links.shape}")
         links = links | links.T | np.eye(n_seg, dtype=bool)
+    # every part meets every other: trace them as one (same hits, one batch per layer)
+    one_part = scheme is None and bool(links.all())
     diag = float(np.linalg.norm(np.ptp(bv, axis=0)))
     if diag <= 0:
         raise ValueError("body has zero size")
@@ -381,7 +385,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     margin = float(params.get("segment_margin", 0.01 * diag))
     if not np.isfinite(margin) or margin < 0:
         raise ValueError(f"segment_margin must be a finite distance >= 0, got {margin}")
-    junctions = (_part_junctions(bv, bf, body_seg) if margin > 0 and len(np.unique(body_seg)) > 1
+    junctions = (_part_junctions(bv, bf, body_seg) if margin > 0 and len(np.unique(body_seg)) > 1 and not one_part
                  else (np.zeros((0, 3)), np.zeros(0, np.int64), np.zeros(0, np.int64)))
     corr, normals, vseg, vseg2, probe_len = [], [], [], [], []
     far = 0
@@ -426,15 +430,17 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
             on_skirt = np.isin(s, (scheme.skirt, scheme.torso))
             if g_normals_in[i] is None and on_skirt.any():
                 n[on_skirt] = hull_normals(bv, body_seg, (scheme.torso, *scheme.skirt_spans), v[on_skirt])
+        if local_probe and len(v):
+            lv = np.einsum("ij,ij->i", c.bary, radius[bf[c.triangle]])
+        else:
+            lv = l_seg[s]
+        if one_part:
+            s = np.zeros_like(s)
         vseg.append(s)
         border = np.full(len(v), -1)
         if len(junctions[0]) and g_segments_in[i] is None and len(v):
             border = _border_segment(v, c.distance, s, junctions, margin)
         vseg2.append(np.column_stack([s, border]))
-        if local_probe and len(v):
-            lv = np.einsum("ij,ij->i", c.bary, radius[bf[c.triangle]])
-        else:
-            lv = l_seg[s]
         probe_len.append(lv)
         if len(v):
             far += int((c.distance > lv).sum())
@@ -442,10 +448,11 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
 
     verts = [v.copy() for v, _ in garr]
     faces = [f for _, f in garr]
-    # Faces never change, so each garment's edges, hem points and adjacency are found once.
-    edges = [unique_edges(f) for f in faces]
-    hems = [np.flatnonzero(boundary_vertices(f, len(v))) for v, f in zip(verts, faces, strict=True)]
-    adjacency = [None] * n_g
+    # Faces never change, so each garment's edges, hem points and adjacency are found once,
+    # and kept for the next frame of the same garments.
+    topo = [topology_of(f, len(v)) for v, f in zip(verts, faces, strict=True)]
+    edges = [t.edges for t in topo]
+    hems = [t.hem_vertices for t in topo]
     fseg = [_face_segment(f, s) for f, s in zip(faces, vseg, strict=True)]
     scenes = [_SegmentScenes(verts[i], faces[i], fseg[i], links) for i in range(n_g)]
     rays = {"boundary": 0, "push": 0, "hidden": 0}
@@ -499,9 +506,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
             hit_points = [o[hit] + n_o[hit] * t[hit, None]]
             hit_amp = [t[hit] + d]
             seeds = [f[face[hit]].ravel()]
-            if adjacency[k] is None:
-                adjacency[k] = vertex_adjacency(f, len(v))
-            spread = _spread_from_hits(v, f, adjacency[k], np.concatenate(hit_points), np.concatenate(hit_amp),
+            spread = _spread_from_hits(v, f, topo[k].adjacency, np.concatenate(hit_points), np.concatenate(hit_amp),
                                        np.concatenate(seeds), params.get("falloff"))
             idx = np.flatnonzero(spread > 0)
             spread[idx] = body_floor(k, idx, spread[idx])
@@ -582,6 +587,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         **timings,
         "garments": n_g,
         "segments": n_seg,
+        "segments_traced": 1 if one_part else n_seg,
         "scheme": scheme.name if scheme is not None else None,
         "skirts": skirts,
         "offset": d,

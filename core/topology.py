@@ -59,3 +59,40 @@ def mean_edge_length(vertices: np.ndarray, faces: np.ndarray) -> float:
     if not len(e):
         return 0.0
     return float(np.linalg.norm(vertices[e[:, 0]] - vertices[e[:, 1]], axis=1).mean())
+
+
+class MeshTopology:
+    """What a triangle list alone decides (edges, hem points, neighbours), for meshes whose
+    faces stay while their vertices move: cloth and posed garments frame after frame."""
+
+    def __init__(self, faces: np.ndarray, n_vertices: int):
+        self.faces, self.n_vertices = faces, n_vertices
+        self.edges, counts = edges_with_counts(faces)
+        hem = np.zeros(n_vertices, dtype=bool)
+        hem[self.edges[counts == 1].ravel()] = True
+        self.hem_vertices = np.flatnonzero(hem)
+        self._adjacency = None
+
+    @property
+    def adjacency(self) -> sparse.csr_matrix:
+        if self._adjacency is None:
+            self._adjacency = vertex_adjacency(self.faces, self.n_vertices)
+        return self._adjacency
+
+
+_topologies: dict = {}
+
+
+def topology_of(faces: np.ndarray, n_vertices: int, keep: int = 16) -> MeshTopology:
+    """The MeshTopology of ``faces``, remembered across calls (by content) for the last few."""
+    import hashlib
+
+    f = np.ascontiguousarray(faces, dtype=np.int64)
+    key = (n_vertices, f.shape, hashlib.blake2b(f.data, digest_size=16).digest())
+    found = _topologies.pop(key, None)
+    if found is None:
+        found = MeshTopology(f, n_vertices)
+    _topologies[key] = found  # most recent last
+    while len(_topologies) > keep:
+        _topologies.pop(next(iter(_topologies)))
+    return found
