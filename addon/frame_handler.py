@@ -29,8 +29,21 @@ def on_frame_change(scene, _depsgraph=None):
         _busy = False
 
 
+def unbaked_cloth(objects):
+    """Names of objects whose cloth cache is not baked."""
+    return [o.name for o in objects for m in o.modifiers
+            if m.type == "CLOTH" and m.show_viewport and not m.point_cache.is_baked]
+
+
 def correct_frame(scene):
     """The layering of the current frame (what the handler runs); returns its summary."""
+    _, garments = layer_resolve.layered_objects(scene)
+    unbaked = unbaked_cloth(garments)
+    if unbaked:
+        # reading the simulated shape switches DeformRT's modifier, which resets an unbaked cache
+        raise layer_resolve.LayeringInputError(
+            f"{', '.join(unbaked)}: bake the cloth first (Physics > Cache > Bake All Dynamics); "
+            "an unbaked simulation restarts whenever DeformRT reads it")
     return layer_resolve.resolve_scene(scene, reuse_correspondence=True)
 
 

@@ -55,11 +55,23 @@ class DeformRTPartProbe(bpy.types.PropertyGroup):
     )
 
 
+def _frame_change_toggled(self, _context):
+    """Off: show the garments as simulated or posed again (a correction kept from one frame
+    would be wrong on every other). On: the next frame change corrects."""
+    from . import layer_resolve
+
+    layer_resolve.forget_correspondence()
+    if not self.resolve_on_frame_change:
+        layer_resolve.clear_scene(self.id_data)
+
+
 class DeformRTSceneProperties(bpy.types.PropertyGroup):
     resolve_on_frame_change: BoolProperty(
         name="Resolve on Frame Change",
-        description="Re-run the layer correction whenever the frame changes (playback, rendering an animation)",
+        description="Re-run the layer correction whenever the frame changes (playback, rendering an animation); "
+        "switching it off shows the garments as simulated again",
         default=False,
+        update=_frame_change_toggled,
     )
     scheme: EnumProperty(
         name="Body Parts",
