@@ -80,7 +80,7 @@ def agreed(fitness, tolerance):
 
 
 def ga_sa(objective, x0, rng, population=10, generations=30, g_offset=5.0, crossover=0.9,
-          mutation=0.2, spread=0.15, tolerance=0.1, stop=None):
+          mutation=0.2, spread=0.5, tolerance=0.1, stop=None):
     """Maximise ``objective`` over [0, 1]^d from the start point ``x0``: the first population
     is x0 and random distortions of it (normal, ``spread`` wide, clipped to the cube)."""
     x0 = np.clip(np.asarray(x0, float), 0.0, 1.0)

@@ -1,0 +1,158 @@
+"""Layered ray tracing for display (seed 4.4): the first hit a camera ray should show.
+
+A ray that meets layer n looks back along -n' (the global normal at the hit) for a higher
+layer within the probe distance l_s. Finding one means the hit point pokes out of a garment
+worn over it, so the hit is ignored and the ray goes on from there, until it meets a surface
+no higher layer covers (or nothing). Nothing in the meshes changes: only what is shown.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .correspondence import vertex_normals
+from .rays import RayScene
+
+
+@dataclass
+class Visible:
+    t: np.ndarray  # distance along the ray (inf: nothing)
+    obj: np.ndarray  # object index (-1: nothing)
+    face: np.ndarray  # face within its object
+    bary: np.ndarray  # (u, v) on that face
+    fixed: np.ndarray  # True where a probe ray changed what the ray shows
+    skipped: int  # hits ignored
+
+
+class LayeredScene:
+    """Objects (vertices, faces) with a layer each (None: not layered, e.g. props; 0: the
+    body; 1, 2, ...: garments inner to outer) and global normals per vertex (default: the
+    object's own vertex normals)."""
+
+    def __init__(self, objects, layers, global_normals=None, probe_distance=0.05, offset=0.0):
+        if len(objects) != len(layers):
+            raise ValueError(f"{len(objects)} objects but {len(layers)} layers")
+        if not (np.isfinite(probe_distance) and probe_distance >= 0):
+            raise ValueError(f"probe_distance must be finite and >= 0, got {probe_distance}")
+        self.vertices = [np.asarray(v, float).reshape(-1, 3) for v, _ in objects]
+        self.faces = [np.asarray(f, np.int64).reshape(-1, 3) for _, f in objects]
+        self.layers = list(layers)
+        self.shading_normals = [vertex_normals(v, f) for v, f in zip(self.vertices, self.faces, strict=True)]
+        normals = global_normals or [None] * len(objects)
+        self.normals = [own if n is None else np.asarray(n, float)
+                        for own, n in zip(self.shading_normals, normals, strict=True)]
+        for v, n in zip(self.vertices, self.normals, strict=True):
+            if n.shape != v.shape:
+                raise ValueError(f"global normals must be one per vertex: {n.shape} for {v.shape}")
+        self.probe, self.offset = float(probe_distance), float(offset)
+        counts = np.array([len(f) for f in self.faces])
+        self.first_face = np.concatenate([[0], np.cumsum(counts)])
+        base = np.concatenate([[0], np.cumsum([len(v) for v in self.vertices])])
+        all_v = np.vstack(self.vertices) if self.vertices else np.zeros((0, 3))
+        all_f = np.vstack([f + b for f, b in zip(self.faces, base, strict=False)]) if self.faces else np.zeros((0, 3))
+        self.scene = RayScene(all_v, all_f)
+        self.face_object = np.repeat(np.arange(len(objects)), counts)
+        self.size = float(np.linalg.norm(np.ptp(all_v, axis=0))) if len(all_v) else 1.0
+        self.eps = 1e-5 * max(self.size, 1e-12)  # above float32 round-off in Embree
+        self.object_layer = np.array([-1 if lay is None else lay for lay in self.layers] + [-1])
+        self._layer_scenes = {}
+        for layer in sorted({lay for lay in self.layers if lay is not None}):
+            ids = [i for i, lay in enumerate(self.layers) if lay is not None and lay > layer]
+            if ids:
+                scene = RayScene(np.vstack([self.vertices[i] for i in ids]),
+                                 _stack_faces([self.faces[i] for i in ids], [len(self.vertices[i]) for i in ids]))
+                to_global = np.concatenate([self.first_face[i] + np.arange(len(self.faces[i])) for i in ids])
+                self._layer_scenes[layer] = (scene, to_global)
+
+    def split(self, face):
+        """Global face ids -> (object, face within it)."""
+        obj = np.where(face >= 0, self.face_object[np.maximum(face, 0)], -1)
+        return obj, np.where(face >= 0, face - self.first_face[np.maximum(obj, 0)], -1)
+
+    def _bary(self, global_face, points):
+        """(u, v) of points on the given triangles of the combined scene."""
+        v = self.scene.vertices[self.scene.faces[global_face]]
+        e1, e2, q = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], points - v[:, 0]
+        d11, d12, d22 = (e1 * e1).sum(1), (e1 * e2).sum(1), (e2 * e2).sum(1)
+        q1, q2 = (q * e1).sum(1), (q * e2).sum(1)
+        det = np.maximum(d11 * d22 - d12**2, 1e-300)
+        return np.column_stack([(d22 * q1 - d12 * q2) / det, (d11 * q2 - d12 * q1) / det])
+
+    def global_normal(self, obj, face, bary):
+        out = np.zeros((len(obj), 3))
+        for i in np.unique(obj[obj >= 0]):
+            sel = obj == i
+            n = self.normals[i][self.faces[i][face[sel]]]
+            u, v = bary[sel, 0:1], bary[sel, 1:2]
+            out[sel] = (1 - u - v) * n[:, 0] + u * n[:, 1] + v * n[:, 2]
+        length = np.linalg.norm(out, axis=1, keepdims=True)
+        return np.divide(out, length, out=np.zeros_like(out), where=length > 0)
+
+    def first_visible(self, origins, directions, layered=True, max_skips=16, min_dist=0.0) -> Visible:
+        """The hit each ray shows; with ``layered`` False, plain ray tracing. ``min_dist``
+        skips what lies closer (a ray leaving a surface starts on it)."""
+        o = np.asarray(origins, float).copy()
+        d = np.asarray(directions, float)
+        n = len(o)
+        t_total = np.zeros(n)
+        result = Visible(np.full(n, np.inf), np.full(n, -1), np.full(n, -1), np.zeros((n, 2)),
+                         np.zeros(n, bool), 0)
+        todo = np.arange(n)
+        min_dist = np.broadcast_to(np.asarray(min_dist, float), (n,)).copy()
+        cover_t = np.full(n, np.inf)  # the covering layer met just behind an ignored hit
+        cover_face = np.full(n, -1)
+        for _ in range(max_skips + 1):
+            if not len(todo):
+                break
+            hits = self.scene.intersect(o[todo], d[todo], min_dist=min_dist[todo])
+            # a covering layer closer than the skip distance (coincident layers) still counts
+            nearer = cover_t[todo] < hits.t
+            if nearer.any():
+                hits.t[nearer] = cover_t[todo][nearer]
+                hits.face[nearer] = cover_face[todo][nearer]
+                hits.bary[nearer] = self._bary(cover_face[todo][nearer], o[todo][nearer]
+                                               + d[todo][nearer] * hits.t[nearer, None])
+            obj, face = self.split(hits.face)
+            hit = hits.face >= 0
+            rejected = np.zeros(len(todo), bool)
+            if layered:
+                for layer, (scene, to_global) in self._layer_scenes.items():
+                    cand = np.flatnonzero(hit & (self.object_layer[obj] == layer))
+                    if not len(cand):
+                        continue
+                    p = o[todo[cand]] + d[todo[cand]] * hits.t[cand, None]
+                    g = self.global_normal(obj[cand], face[cand], hits.bary[cand])
+                    # a probe from just outside: a higher layer at the same place is in front
+                    start = p + g * self.offset
+                    covered = scene.occluded(start, -g, max_dist=self.probe + self.offset)
+                    rejected[cand] = covered
+                    if covered.any():
+                        c = cand[covered]
+                        back = p[covered] - d[todo[c]] * self.eps
+                        again_hits = scene.intersect(back, d[todo[c]])
+                        cover_t[todo[c]] = np.where(again_hits.hit, np.maximum(again_hits.t - self.eps, 0.0), np.inf)
+                        cover_face[todo[c]] = np.where(again_hits.hit, to_global[np.maximum(again_hits.face, 0)], -1)
+            cover_t[todo[~rejected]] = np.inf
+            keep = hit & ~rejected
+            done = todo[keep | ~hit]
+            sel = keep[keep | ~hit]
+            t_here = np.where(hit, hits.t, np.inf)
+            result.t[done] = np.where(sel, t_total[done] + t_here[keep | ~hit], np.inf)
+            result.obj[done] = np.where(sel, obj[keep | ~hit], -1)
+            result.face[done] = np.where(sel, face[keep | ~hit], -1)
+            result.bary[done] = np.where(sel[:, None], hits.bary[keep | ~hit], 0.0)
+            again = todo[rejected]
+            result.fixed[again] = True
+            result.skipped += len(again)
+            # go on from the ignored hit
+            o[again] = o[again] + d[again] * hits.t[rejected, None]
+            t_total[again] += hits.t[rejected]
+            min_dist[again] = self.eps
+            todo = again
+        return result
+
+
+def _stack_faces(faces, counts):
+    """Faces of several objects indexing their stacked vertices."""
+    base = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    return np.vstack([f + b for f, b in zip(faces, base, strict=True)])

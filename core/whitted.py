@@ -1,0 +1,193 @@
+"""Whitted-style shading (seed 2.4) over a LayeredScene: Blinn-Phong with shadow rays
+(eq. 2.7-2.8), mirror reflection with a recursion limit and an importance cutoff on the NTSC
+luminance of what a ray still carries (2.9-2.11), refraction by Snell with Schlick's Fresnel
+(2.12-2.13) and Beer-Lambert attenuation inside transmissive objects (2.14).
+
+Rays travel in batches; each carries the pixel it adds to and the share ("weight") of that
+pixel it decides, so a reflection or refraction is one more batch, not a recursive call.
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .layered_trace import LayeredScene
+
+LUMA = np.array([0.299, 0.587, 0.114])  # NTSC luminance weights
+
+
+@dataclass(frozen=True)
+class Material:
+    colour: tuple = (0.8, 0.8, 0.8)
+    specular: float = 0.0  # Blinn-Phong weight
+    shininess: float = 32.0
+    mirror: float = 0.0  # share reflected as a mirror (opaque part)
+    transmission: float = 0.0  # share refracted
+    ior: float = 1.5
+    absorption: tuple = (0.0, 0.0, 0.0)  # Beer-Lambert coefficient per unit length, inside
+
+
+@dataclass(frozen=True)
+class Light:
+    kind: str  # "SUN" (vector: direction the light travels) or "POINT" (vector: position)
+    vector: tuple
+    colour: tuple = (1.0, 1.0, 1.0)  # irradiance (sun) or intensity (point, falls as 1/r^2)
+
+
+@dataclass
+class Image:
+    colour: np.ndarray  # (n, 3)
+    depth: np.ndarray  # first visible hit distance (inf: background)
+    index: np.ndarray  # object index of the first visible hit (-1: background)
+    fixed: np.ndarray  # where layered tracing changed the first hit
+    stats: dict = field(default_factory=dict)
+
+
+def camera_rays(matrix_world, fov_y, width, height):
+    """Pinhole rays through pixel centres, rows top to bottom; the camera looks down its -z."""
+    m = np.asarray(matrix_world, float)
+    if width < 1 or height < 1:
+        raise ValueError(f"the image needs at least 1 x 1 pixels, got {width} x {height}")
+    if not (0 < fov_y < np.pi):
+        raise ValueError(f"the vertical field of view must be in (0, pi), got {fov_y}")
+    half_h = np.tan(0.5 * fov_y)
+    half_w = half_h * width / height
+    x = ((np.arange(width) + 0.5) / width * 2 - 1) * half_w
+    y = (1 - (np.arange(height) + 0.5) / height * 2) * half_h
+    gx, gy = np.meshgrid(x, y)
+    local = np.stack([gx.ravel(), gy.ravel(), -np.ones(gx.size)], 1)
+    d = local @ m[:3, :3].T
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    return np.broadcast_to(m[:3, 3], d.shape).copy(), d
+
+
+def render(scene: LayeredScene, materials, lights, origins, directions, background=(0.0, 0.0, 0.0),
+           ambient=0.0, max_depth=4, cutoff=0.01, layered=True) -> Image:
+    """Colour per ray. ``materials`` one per object; ``background`` a colour or a function of
+    ray directions (n, 3) -> (n, 3)."""
+    if len(materials) != len(scene.layers):
+        raise ValueError(f"{len(materials)} materials for {len(scene.layers)} objects")
+    if max_depth < 0:
+        raise ValueError(f"max_depth must be >= 0, got {max_depth}")
+    sky = background if callable(background) else (lambda d: np.broadcast_to(np.asarray(background, float), d.shape))
+    o, d = np.asarray(origins, float), np.asarray(directions, float)
+    n = len(o)
+    colour = np.zeros((n, 3))
+    pixel = np.arange(n)
+    weight = np.ones((n, 3))
+    depth_of = np.zeros(n, int)
+    sigma = np.zeros((n, 3))  # absorption of the medium each ray travels in
+    first, stats = None, {"rays": 0, "shadow_rays": 0, "deepest": 0, "cut_by_importance": 0}
+    mats = list(materials)
+    albedo = np.array([m.colour for m in mats], float)
+    absorb = np.array([m.absorption for m in mats], float)
+    leaving = np.zeros(n)  # secondary rays start on their surface and skip it
+    while len(pixel):
+        vis = scene.first_visible(o, d, layered=layered, min_dist=leaving)
+        stats["rays"] += len(pixel)
+        if first is None:
+            first = vis
+        hit = vis.obj >= 0
+        # Beer-Lambert over the way to the hit (or to the background)
+        travel = np.where(hit, vis.t, 0.0)
+        weight = weight * np.exp(-sigma * travel[:, None])
+        np.add.at(colour, pixel[~hit], weight[~hit] * sky(d[~hit]))
+        if not hit.any():
+            break
+        keep = np.flatnonzero(hit)
+        o, d, pixel, weight, depth_of, sigma = o[keep], d[keep], pixel[keep], weight[keep], depth_of[keep], sigma[keep]
+        obj, face, bary, t = vis.obj[keep], vis.face[keep], vis.bary[keep], vis.t[keep]
+        p = o + d * t[:, None]
+        nrm = _shading_normal(scene, obj, face, bary)
+        entering = np.einsum("ij,ij->i", nrm, d) < 0
+        nrm = np.where(entering[:, None], nrm, -nrm)  # faces the incoming ray
+        trans = np.array([mats[i].transmission for i in obj])
+        mirror = np.array([mats[i].mirror for i in obj])
+        ior = np.array([mats[i].ior for i in obj])
+        local = (1 - trans) * (1 - mirror)
+        colour_local = _direct(scene, lights, mats, obj, p, nrm, d, albedo[obj], ambient, stats)
+        np.add.at(colour, pixel, weight * local[:, None] * colour_local)
+        # Fresnel for the transmissive share (eq. 2.12-2.13); total internal reflection reflects all
+        eta = np.where(entering, 1.0 / ior, ior)
+        cos_i = -np.einsum("ij,ij->i", nrm, d)
+        sin2_t = eta**2 * np.maximum(0.0, 1 - cos_i**2)
+        tir = sin2_t > 1
+        f0 = ((1 - ior) / (1 + ior)) ** 2
+        cos_t = np.sqrt(np.maximum(0.0, 1 - sin2_t))
+        cos_f = np.where(entering, cos_i, cos_t)  # Schlick on the side of the lower index
+        fres = np.where(tir, 1.0, f0 + (1 - f0) * (1 - cos_f) ** 5)
+        k_reflect = (1 - trans) * mirror + trans * fres
+        k_refract = trans * (1 - fres)
+        refl_d = d + 2 * cos_i[:, None] * nrm
+        refr_d = eta[:, None] * d + (eta * cos_i - cos_t)[:, None] * nrm
+        next_depth = depth_of + 1
+        stats["deepest"] = max(stats["deepest"], int(depth_of.max()))
+        batches = []
+        for k, direction, inside in ((k_reflect, refl_d, sigma), (k_refract, refr_d, None)):
+            w = weight * k[:, None]
+            go = (k > 0) & (next_depth <= max_depth)
+            important = (w @ LUMA) >= cutoff
+            stats["cut_by_importance"] += int((go & ~important).sum())
+            go &= important
+            if not go.any():
+                continue
+            if inside is None:  # refracted rays enter (take the object's absorption) or leave (none)
+                inside = np.where(entering[:, None], absorb[obj], 0.0)
+            batches.append((p[go], direction[go], pixel[go], w[go], next_depth[go], inside[go]))
+        if not batches:
+            break
+        o, d, pixel, weight, depth_of, sigma = (np.concatenate(parts) for parts in zip(*batches, strict=True))
+        d = d / np.linalg.norm(d, axis=1, keepdims=True)
+        leaving = np.full(len(o), scene.eps)
+    return Image(colour, first.t, first.obj, first.fixed, stats)
+
+
+def _shading_normal(scene, obj, face, bary):
+    """The object's interpolated vertex normals (smooth shading)."""
+    out = np.zeros((len(obj), 3))
+    for i in np.unique(obj):
+        sel = obj == i
+        v, f = scene.vertices[i], scene.faces[i]
+        vn = scene.shading_normals[i]
+        tri = vn[f[face[sel]]]
+        u, w = bary[sel, 0:1], bary[sel, 1:2]
+        out[sel] = (1 - u - w) * tri[:, 0] + u * tri[:, 1] + w * tri[:, 2]
+        flat = np.cross(v[f[face[sel], 1]] - v[f[face[sel], 0]], v[f[face[sel], 2]] - v[f[face[sel], 0]])
+        bad = np.linalg.norm(out[sel], axis=1) < 1e-12
+        if bad.any():
+            out[np.flatnonzero(sel)[bad]] = flat[bad]
+    return out / np.maximum(np.linalg.norm(out, axis=1, keepdims=True), 1e-300)
+
+
+def _direct(scene, lights, mats, obj, p, nrm, d, albedo, ambient, stats):
+    """Blinn-Phong from each light that the point sees (shadow rays), plus ambient."""
+    out = ambient * albedo
+    spec = np.array([mats[i].specular for i in obj])
+    shine = np.array([mats[i].shininess for i in obj])
+    start = p + nrm * scene.eps
+    for light in lights:
+        vec = np.asarray(light.vector, float)
+        if light.kind == "SUN":
+            to_l = np.broadcast_to(-vec / np.linalg.norm(vec), p.shape)
+            dist = np.full(len(p), np.inf)
+            power = np.broadcast_to(np.asarray(light.colour, float), p.shape)
+        elif light.kind == "POINT":
+            to_l = vec - p
+            dist = np.linalg.norm(to_l, axis=1)
+            to_l = to_l / np.maximum(dist, 1e-300)[:, None]
+            power = np.asarray(light.colour, float) / np.maximum(dist, 1e-300)[:, None] ** 2
+        else:
+            raise ValueError(f"light kind must be SUN or POINT, got {light.kind!r}")
+        lit = np.einsum("ij,ij->i", nrm, to_l) > 0
+        if not lit.any():
+            continue
+        idx = np.flatnonzero(lit)
+        shadow = scene.scene.occluded(start[idx], to_l[idx], max_dist=dist[idx] - 2 * scene.eps)
+        stats["shadow_rays"] += len(idx)
+        idx = idx[~shadow]
+        cos = np.einsum("ij,ij->i", nrm[idx], to_l[idx])
+        half = to_l[idx] - d[idx]
+        half /= np.maximum(np.linalg.norm(half, axis=1, keepdims=True), 1e-300)
+        blinn = np.maximum(0.0, np.einsum("ij,ij->i", nrm[idx], half)) ** shine[idx]
+        out[idx] += power[idx] * (albedo[idx] * cos[:, None] + (spec[idx] * blinn)[:, None])
+    return out

@@ -1,0 +1,141 @@
+"""Whitted shading and layered ray tracing on scenes with analytic answers."""
+
+import numpy as np
+import pytest
+import trimesh
+
+from core.layered_trace import LayeredScene
+from core.whitted import Light, Material, camera_rays, render
+from tests.core.layered_cases import sheet
+
+
+def slab(thickness, size=4.0, z0=0.0):
+    """A closed box from z0 - thickness to z0, faces outward."""
+    box = trimesh.creation.box(extents=[size, size, thickness])
+    box.apply_translation([0, 0, z0 - thickness / 2])
+    return box.vertices, box.faces
+
+
+def down_rays(n=5, z=1.0, spread=0.2):
+    """Rays straight down (-z) from a small grid above the origin."""
+    s = np.linspace(-spread, spread, n)
+    x, y = np.meshgrid(s, s)
+    o = np.column_stack([x.ravel(), y.ravel(), np.full(x.size, z)])
+    return o, np.tile([0.0, 0.0, -1.0], (len(o), 1))
+
+
+def test_lambert_sphere_under_a_sun():
+    sphere = trimesh.creation.icosphere(subdivisions=5, radius=1.0)
+    scene = LayeredScene([(sphere.vertices, sphere.faces)], [None])
+    sun = Light("SUN", (0.3, -0.2, -1.0), (2.0, 2.0, 2.0))
+    cam = np.eye(4)
+    cam[:3, 3] = (0, 0, 5)
+    o, d = camera_rays(cam, np.radians(30), 48, 48)
+    img = render(scene, [Material(colour=(0.5, 0.4, 0.3))], [sun], o, d)
+    covered = img.index == 0
+    assert covered.sum() > 500
+    p = o[covered] + d[covered] * img.depth[covered, None]
+    # the exact sphere: normal = p / |p|; Lambert E albedo max(0, n.l); no shadow on a convex body
+    to_sun = -np.array(sun.vector) / np.linalg.norm(sun.vector)
+    normal = p / np.linalg.norm(p, axis=1, keepdims=True)
+    expect = 2.0 * np.array([0.5, 0.4, 0.3]) * np.maximum(0.0, normal @ to_sun)[:, None]
+    np.testing.assert_allclose(img.colour[covered], expect, atol=0.01)
+    np.testing.assert_array_equal(img.colour[~covered], 0.0)
+
+
+def test_glass_slab_transmits_what_fresnel_leaves_with_every_internal_bounce():
+    """Normal incidence on glass (n = 1.5), a sky only below: T = (1-R)/(1+R) summed over bounces."""
+    v, f = slab(0.1)
+    scene = LayeredScene([(v, f)], [None])
+    o, d = down_rays()
+    below = lambda dirs: np.where(dirs[:, 2:3] < 0, 1.0, 0.0) * np.ones(3)  # noqa: E731
+    r = ((1.5 - 1) / (1.5 + 1)) ** 2
+    img = render(scene, [Material(colour=(0, 0, 0), transmission=1.0, ior=1.5)], [], o, d, background=below,
+                 max_depth=12, cutoff=0.0)
+    np.testing.assert_allclose(img.colour, (1 - r) / (1 + r), rtol=1e-6)
+    # two bounces allowed: in and out only, (1 - R)^2
+    img = render(scene, [Material(colour=(0, 0, 0), transmission=1.0, ior=1.5)], [], o, d, background=below,
+                 max_depth=2, cutoff=0.0)
+    np.testing.assert_allclose(img.colour, (1 - r) ** 2, rtol=1e-6)
+
+
+def test_beer_lambert_through_a_known_thickness():
+    thickness, sigma = 0.25, np.array([0.5, 2.0, 8.0])
+    v, f = slab(thickness)
+    scene = LayeredScene([(v, f)], [None])
+    o, d = down_rays()
+    img = render(scene, [Material(transmission=1.0, ior=1.0, absorption=tuple(sigma))], [], o, d,
+                 background=(1.0, 1.0, 1.0), cutoff=0.0)
+    np.testing.assert_allclose(img.colour, np.exp(-sigma * thickness)[None, :].repeat(len(o), 0), rtol=1e-6)
+
+
+def test_mirror_recursion_stops_at_the_limit_and_at_the_importance_cutoff():
+    """A ray between two facing mirrors bounces until max_depth, or until what it carries is
+    under the cutoff: 0.5^k < 0.1 first at k = 4."""
+    lower, upper = slab(0.1, z0=0.0), slab(0.1, z0=1.1)
+    scene = LayeredScene([lower, upper], [None, None])
+    o, d = down_rays(n=1, z=0.5)
+    full = Material(colour=(0, 0, 0), mirror=1.0)
+    img = render(scene, [full, full], [], o, d, max_depth=7, cutoff=0.0, background=(1, 1, 1))
+    assert img.stats["deepest"] == 7 and img.stats["rays"] == 8
+    np.testing.assert_allclose(img.colour, 0.0)  # never escapes
+    half = Material(colour=(0, 0, 0), mirror=0.5)
+    img = render(scene, [half, half], [], o, d, max_depth=50, cutoff=0.1)
+    assert img.stats["deepest"] == 3 and img.stats["cut_by_importance"] == 1
+
+
+def test_z_fighting_sheets_show_only_the_higher_layer():
+    v, f = sheet(size=1.0, n=20, z=0.0)
+    wiggle = v.copy()
+    wiggle[:, 2] += 0.002 * np.sin(37 * v[:, 0]) * np.cos(23 * v[:, 1])  # each wins half the pixels
+    up = np.tile([0.0, 0.0, 1.0], (len(v), 1))
+    scene = LayeredScene([(wiggle, f), (v, f)], [1, 2], global_normals=[up, up], probe_distance=0.01)
+    o, d = down_rays(n=30, spread=0.45)
+    plain = scene.first_visible(o, d, layered=False)
+    shown = scene.first_visible(o, d)
+    assert 0.2 < (plain.obj == 0).mean() < 0.8  # plain ray tracing shows both, as they cross
+    assert (shown.obj == 1).all()
+    np.testing.assert_array_equal(shown.fixed, plain.obj == 0)
+    # a lower layer 5 cm out, beyond the 1 cm probe, is not taken for poking through: it shows
+    far = LayeredScene([(v + [0, 0, 0.05], f), (v, f)], [1, 2], global_normals=[up, up], probe_distance=0.01)
+    assert (far.first_visible(o, d).obj == 0).all()
+    near = LayeredScene([(v + [0, 0, 0.005], f), (v, f)], [1, 2], global_normals=[up, up], probe_distance=0.01)
+    assert (near.first_visible(o, d).obj == 1).all()
+
+
+def test_flipped_faces_shade_the_same():
+    sphere = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
+    sun = [Light("SUN", (0, 0, -1), (1, 1, 1))]
+    o, d = down_rays(n=7, z=3.0, spread=0.6)
+    a = render(LayeredScene([(sphere.vertices, sphere.faces)], [None]), [Material()], sun, o, d)
+    b = render(LayeredScene([(sphere.vertices, sphere.faces[:, ::-1])], [None]), [Material()], sun, o, d)
+    np.testing.assert_allclose(a.colour, b.colour, atol=1e-9)
+
+
+def test_point_light_falls_off_with_the_square_of_distance():
+    v, f = sheet(size=4.0, n=9, z=0.0)
+    scene = LayeredScene([(v, f)], [None])
+    o, d = down_rays(n=1)
+    near = render(scene, [Material(colour=(1, 1, 1))], [Light("POINT", (0, 0, 1.0), (4, 4, 4))], o, d)
+    far = render(scene, [Material(colour=(1, 1, 1))], [Light("POINT", (0, 0, 2.0), (4, 4, 4))], o, d)
+    for img, height in ((near, 1.0), (far, 2.0)):
+        r2 = height**2 + (o[0, :2] ** 2).sum()  # the ray lands at (x, y, 0) under a light at (0, 0, h)
+        np.testing.assert_allclose(img.colour, 4.0 * (height / np.sqrt(r2)) / r2, rtol=1e-9)
+
+
+@pytest.mark.parametrize("bad, match", [
+    (dict(materials=[]), "materials"),
+    (dict(max_depth=-1), "max_depth"),
+    (dict(lights=[Light("SPOT", (0, 0, 1))]), "SUN or POINT"),
+])
+def test_bad_input_is_refused(bad, match):
+    v, f = sheet(size=1.0, n=4)
+    scene = LayeredScene([(v, f)], [None])
+    o, d = down_rays(n=1)
+    args = dict(materials=[Material()], lights=[Light("SUN", (0, 0, -1))], max_depth=2) | bad
+    with pytest.raises(ValueError, match=match):
+        render(scene, args["materials"], args["lights"], o, d, max_depth=args["max_depth"])
+    with pytest.raises(ValueError, match="field of view"):
+        camera_rays(np.eye(4), 0.0, 4, 4)
+    with pytest.raises(ValueError, match="layers"):
+        LayeredScene([(v, f)], [None, 1])
