@@ -4,7 +4,7 @@ import bpy
 
 from ..operators import jellyfish as jellyfish_ops
 from ..operators import layering, tagging
-from . import cli, frame_handler, panels, preferences, properties
+from . import cli, frame_handler, panels, preferences, properties, render_engine
 
 _classes = (*properties.CLASSES, *preferences.CLASSES, *tagging.CLASSES, *layering.CLASSES, *jellyfish_ops.CLASSES,
             *panels.CLASSES)
@@ -18,9 +18,11 @@ def register():
     preferences.apply_thread_setting()
     cli.register()
     frame_handler.register()
+    render_engine.register()
 
 
 def unregister():
+    render_engine.unregister()
     frame_handler.unregister()
     bpy.types.VIEW3D_MT_add.remove(jellyfish_ops.menu_add)
     cli.unregister()
