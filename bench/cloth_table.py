@@ -19,7 +19,7 @@ from bench.blender import load_package
 from bench.report import REPORT, machine, table, write_section
 
 
-def run_case(pkg, layers, per_sheet, frames, settle=0):
+def run_case(layers, per_sheet, frames):
     import bpy
     from deformrt.addon import frame_handler, layer_resolve, mesh_io
     from deformrt.core import metrics
@@ -34,7 +34,7 @@ def run_case(pkg, layers, per_sheet, frames, settle=0):
     sim = [(time.perf_counter() - t0) / frames] * frames
     layer_resolve.forget_correspondence()
     rows = []
-    for f in range(1 + settle, frames + 1):
+    for f in range(1, frames + 1):
         scene.frame_set(f)
         with layer_resolve.results_bypassed(made):
             depsgraph = bpy.context.evaluated_depsgraph_get()
@@ -60,7 +60,7 @@ def main(argv=None):
     ap.add_argument("--layers", default="1,2,3,4")
     ap.add_argument("--no-write", action="store_true")
     args = ap.parse_args(argv)
-    pkg = load_package()
+    load_package()
     sizes = [int(s) for s in args.sizes.split(",")]
     layer_counts = [int(s) for s in args.layers.split(",")]
     out, series = [], {}
@@ -68,7 +68,7 @@ def main(argv=None):
         for layers in layer_counts:
             if layers < 2:
                 continue  # one sheet has nothing to be layered against
-            rows = run_case(pkg, layers, n, args.frames)
+            rows = run_case(layers, n, args.frames)
             sim = np.array([r[1] for r in rows])
             corr = np.array([r[2] for r in rows])
             cb = np.array([r[3] for r in rows])

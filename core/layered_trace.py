@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .correspondence import vertex_normals
+from .correspondence import closest_point_on_triangles, vertex_normals
 from .rays import RayScene
 
 
@@ -47,9 +47,8 @@ class LayeredScene:
         self.probe, self.offset = float(probe_distance), float(offset)
         counts = np.array([len(f) for f in self.faces])
         self.first_face = np.concatenate([[0], np.cumsum(counts)])
-        base = np.concatenate([[0], np.cumsum([len(v) for v in self.vertices])])
         all_v = np.vstack(self.vertices) if self.vertices else np.zeros((0, 3))
-        all_f = np.vstack([f + b for f, b in zip(self.faces, base, strict=False)]) if self.faces else np.zeros((0, 3))
+        all_f = _stack_faces(self.faces, [len(v) for v in self.vertices]) if self.faces else np.zeros((0, 3))
         self.scene = RayScene(all_v, all_f)
         self.face_object = np.repeat(np.arange(len(objects)), counts)
         self.size = float(np.linalg.norm(np.ptp(all_v, axis=0))) if len(all_v) else 1.0
@@ -72,19 +71,20 @@ class LayeredScene:
     def _bary(self, global_face, points):
         """(u, v) of points on the given triangles of the combined scene."""
         v = self.scene.vertices[self.scene.faces[global_face]]
-        e1, e2, q = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], points - v[:, 0]
-        d11, d12, d22 = (e1 * e1).sum(1), (e1 * e2).sum(1), (e2 * e2).sum(1)
-        q1, q2 = (q * e1).sum(1), (q * e2).sum(1)
-        det = np.maximum(d11 * d22 - d12**2, 1e-300)
-        return np.column_stack([(d22 * q1 - d12 * q2) / det, (d11 * q2 - d12 * q1) / det])
+        return closest_point_on_triangles(points, v[:, 0], v[:, 1], v[:, 2])[:, 1:]
 
-    def global_normal(self, obj, face, bary):
+    def interpolate(self, per_vertex, obj, face, bary):
+        """Per-vertex vectors (one array per object) at hit points, blended by barycentrics."""
         out = np.zeros((len(obj), 3))
         for i in np.unique(obj[obj >= 0]):
             sel = obj == i
-            n = self.normals[i][self.faces[i][face[sel]]]
+            tri = per_vertex[i][self.faces[i][face[sel]]]
             u, v = bary[sel, 0:1], bary[sel, 1:2]
-            out[sel] = (1 - u - v) * n[:, 0] + u * n[:, 1] + v * n[:, 2]
+            out[sel] = (1 - u - v) * tri[:, 0] + u * tri[:, 1] + v * tri[:, 2]
+        return out
+
+    def global_normal(self, obj, face, bary):
+        out = self.interpolate(self.normals, obj, face, bary)
         length = np.linalg.norm(out, axis=1, keepdims=True)
         return np.divide(out, length, out=np.zeros_like(out), where=length > 0)
 

@@ -81,6 +81,8 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
     mats = list(materials)
     albedo = np.array([m.colour for m in mats], float)
     absorb = np.array([m.absorption for m in mats], float)
+    props = {k: np.array([getattr(m, k) for m in mats], float)
+             for k in ("transmission", "mirror", "ior", "specular", "shininess")}
     leaving = np.zeros(n)  # secondary rays start on their surface and skip it
     while len(pixel):
         vis = scene.first_visible(o, d, layered=layered, min_dist=leaving)
@@ -101,11 +103,10 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
         nrm = _shading_normal(scene, obj, face, bary)
         entering = np.einsum("ij,ij->i", nrm, d) < 0
         nrm = np.where(entering[:, None], nrm, -nrm)  # faces the incoming ray
-        trans = np.array([mats[i].transmission for i in obj])
-        mirror = np.array([mats[i].mirror for i in obj])
-        ior = np.array([mats[i].ior for i in obj])
+        trans, mirror, ior = props["transmission"][obj], props["mirror"][obj], props["ior"][obj]
         local = (1 - trans) * (1 - mirror)
-        colour_local = _direct(scene, lights, mats, obj, p, nrm, d, albedo[obj], ambient, stats)
+        colour_local = _direct(scene, lights, p, nrm, d, albedo[obj], props["specular"][obj],
+                               props["shininess"][obj], ambient, stats)
         np.add.at(colour, pixel, weight * local[:, None] * colour_local)
         # Fresnel for the transmissive share (eq. 2.12-2.13); total internal reflection reflects all
         eta = np.where(entering, 1.0 / ior, ior)
@@ -143,27 +144,19 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
 
 
 def _shading_normal(scene, obj, face, bary):
-    """The object's interpolated vertex normals (smooth shading)."""
-    out = np.zeros((len(obj), 3))
-    for i in np.unique(obj):
-        sel = obj == i
-        v, f = scene.vertices[i], scene.faces[i]
-        vn = scene.shading_normals[i]
-        tri = vn[f[face[sel]]]
-        u, w = bary[sel, 0:1], bary[sel, 1:2]
-        out[sel] = (1 - u - w) * tri[:, 0] + u * tri[:, 1] + w * tri[:, 2]
-        flat = np.cross(v[f[face[sel], 1]] - v[f[face[sel], 0]], v[f[face[sel], 2]] - v[f[face[sel], 0]])
-        bad = np.linalg.norm(out[sel], axis=1) < 1e-12
-        if bad.any():
-            out[np.flatnonzero(sel)[bad]] = flat[bad]
+    """The object's interpolated vertex normals (smooth shading); the face's own where they
+    cancel out."""
+    out = scene.interpolate(scene.shading_normals, obj, face, bary)
+    bad = np.flatnonzero(np.linalg.norm(out, axis=1) < 1e-12)
+    if len(bad):
+        glob = scene.first_face[obj[bad]] + face[bad]
+        out[bad] = scene.scene.face_normals[glob]
     return out / np.maximum(np.linalg.norm(out, axis=1, keepdims=True), 1e-300)
 
 
-def _direct(scene, lights, mats, obj, p, nrm, d, albedo, ambient, stats):
+def _direct(scene, lights, p, nrm, d, albedo, spec, shine, ambient, stats):
     """Blinn-Phong from each light that the point sees (shadow rays), plus ambient."""
     out = ambient * albedo
-    spec = np.array([mats[i].specular for i in obj])
-    shine = np.array([mats[i].shininess for i in obj])
     start = p + nrm * scene.eps
     for light in lights:
         vec = np.asarray(light.vector, float)
