@@ -109,6 +109,27 @@ class DeformRTSceneProperties(bpy.types.PropertyGroup):
         description="Leave out triangles that still cross a higher layer after the move (seed Fig. 4.14)",
         default=True,
     )
+    render_layered: BoolProperty(
+        name="Layered",
+        description="DeformRT Layered render: skip hits on a garment that a higher layer covers (off: plain ray "
+        "tracing, to compare)",
+        default=True,
+    )
+    render_max_depth: IntProperty(
+        name="Max Bounces",
+        description="Reflection and refraction recursion limit of the DeformRT Layered render",
+        default=4,
+        min=0,
+        soft_max=12,
+    )
+    render_area_samples: IntProperty(
+        name="Area Light Samples",
+        description="Shadow rays per side of each area light (the square of it per light): more gives smoother "
+        "soft shadows",
+        default=4,
+        min=1,
+        soft_max=16,
+    )
     last_report: StringProperty(
         name="Last Report",
         description="What the last resolve or inspect measured (shown in the panel)",

@@ -4,8 +4,14 @@
 Objects tagged as body or garments are layered (global normals from the stored
 ``deformrt_global_normal`` attribute, else each mesh's own normals); everything else is drawn
 as it is. Materials come from the Principled BSDF: base colour, metallic as mirror,
-transmission and IOR, roughness as Blinn-Phong shininess. Sun and point lights. The colour
-is irradiance times albedo (no 1/pi), so a white surface facing a sun of strength 1 is 1.
+transmission and IOR, roughness as Blinn-Phong shininess. Sun, point and area lights (area
+lights sampled on a grid for soft shadows). Light strengths are divided by pi on the way in, so
+the seed's Lambert term (albedo times N.L, no 1/pi) gives the radiance Cycles gives: a white
+surface facing a sun of strength 1 is 1/pi.
+
+Passes: Combined; Depth and object index (the objects' pass_index) when the view layer asks for
+them, written as Cycles writes them; and "DeformRT Fixed", 1 where layered tracing changed what
+a pixel shows (for compositing or checking a scene).
 """
 
 import bpy
@@ -15,6 +21,9 @@ from ..core.layered_trace import LayeredScene
 from ..core.whitted import Light, Material, camera_rays, render
 from . import mesh_io
 from .layer_resolve import GLOBAL_NORMAL_ATTRIBUTE
+
+FIXED_PASS = "DeformRT Fixed"  # 1 where a probe ray changed what the pixel shows
+BACKGROUND_DEPTH = 1e10  # what Cycles writes where no surface is
 
 
 def _material(obj):
@@ -30,25 +39,33 @@ def _material(obj):
                     transmission=float(value("Transmission Weight")), ior=float(value("IOR")))
 
 
-def _lights(depsgraph):
+def _lights(depsgraph, area_samples=4):
     out = []
     for inst in depsgraph.object_instances:
         obj = inst.object
         if obj.type != "LIGHT":
             continue
         m = np.array(inst.matrix_world)
-        colour = tuple(np.array(obj.data.color) * obj.data.energy)
-        if obj.data.type == "SUN":
-            out.append(Light("SUN", tuple(-m[:3, 2]), colour))
-        elif obj.data.type == "POINT":
+        light = obj.data
+        colour = np.array(light.color) * light.energy / np.pi  # a Lambert surface sends E albedo / pi
+        if light.type == "SUN":
+            out.append(Light("SUN", tuple(-m[:3, 2]), tuple(colour)))
+        elif light.type == "POINT":
             # a point lamp of P watts sends P / (4 pi) per steradian
-            out.append(Light("POINT", tuple(m[:3, 3]), tuple(np.array(colour) / (4 * np.pi))))
+            out.append(Light("POINT", tuple(m[:3, 3]), tuple(colour / (4 * np.pi))))
+        elif light.type == "AREA":
+            # P watts off a Lambertian patch: P / pi per steradian along its normal (local -z)
+            sx = light.size
+            sy = light.size if light.shape in ("SQUARE", "DISK") else light.size_y
+            u, v = m[:3, 0] * sx / 2, -m[:3, 1] * sy / 2  # u x v = -z: the side it lights
+            out.append(Light("AREA", tuple(m[:3, 3]), tuple(colour / np.pi), edges=(tuple(u), tuple(v)),
+                             disk=light.shape in ("DISK", "ELLIPSE"), samples=area_samples))
     return out
 
 
 def scene_arrays(depsgraph):
-    """(LayeredScene, materials, object names) of the visible meshes, in world space."""
-    objects, layers, normals, materials, names = [], [], [], [], []
+    """(LayeredScene, materials, objects) of the visible meshes, in world space."""
+    objects, layers, normals, materials, sources = [], [], [], [], []
     for obj in depsgraph.scene.objects:
         if obj.type != "MESH" or not obj.visible_get():
             continue
@@ -62,10 +79,17 @@ def scene_arrays(depsgraph):
         # stored in object space; normals turn with the inverse transpose
         normals.append(None if n is None or len(n) != len(a.vertices) else n @ np.linalg.inv(a.matrix_world[:3, :3]))
         materials.append(_material(obj))
-        names.append(obj.name)
+        sources.append(obj)
     settings = depsgraph.scene.deformrt
     probe = settings.probe_distance if settings.probe_distance > 0 else 0.05
-    return LayeredScene(objects, layers, normals, probe_distance=probe, offset=settings.offset), materials, names
+    return LayeredScene(objects, layers, normals, probe_distance=probe, offset=settings.offset), materials, sources
+
+
+def _background(world):
+    if world is not None and world.use_nodes and "Background" in world.node_tree.nodes:
+        node = world.node_tree.nodes["Background"]
+        return tuple(np.array(node.inputs["Color"].default_value[:3]) * node.inputs["Strength"].default_value)
+    return tuple(world.color) if world is not None else (0.05, 0.05, 0.05)
 
 
 def vertical_fov(cam, width, height):
@@ -83,35 +107,77 @@ def vertical_fov(cam, width, height):
     return 2 * np.arctan(half)
 
 
+class DEFORMRT_PT_layered_render(bpy.types.Panel):
+    bl_idname = "DEFORMRT_PT_layered_render"
+    bl_label = "DeformRT Layered"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    COMPAT_ENGINES = {"DEFORMRT_LAYERED"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+    def draw(self, context):
+        settings = context.scene.deformrt
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(settings, "render_layered")
+        layout.prop(settings, "render_max_depth")
+        layout.prop(settings, "render_area_samples")
+        layout.prop(settings, "probe_distance")
+        layout.prop(settings, "offset")
+
+
 class DEFORMRT_RE_layered(bpy.types.RenderEngine):
     bl_idname = "DEFORMRT_LAYERED"
     bl_label = "DeformRT Layered"
     bl_use_preview = False
 
+    def update_render_passes(self, scene=None, renderlayer=None):
+        self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
+        if renderlayer.use_pass_z:
+            self.register_pass(scene, renderlayer, "Depth", 1, "Z", "VALUE")
+        if renderlayer.use_pass_object_index:
+            self.register_pass(scene, renderlayer, "IndexOB", 1, "X", "VALUE")
+        self.register_pass(scene, renderlayer, FIXED_PASS, 1, "X", "VALUE")
+
     def render(self, depsgraph):
         scene = depsgraph.scene
+        settings = scene.deformrt
         scale = scene.render.resolution_percentage / 100.0
         w, h = int(scene.render.resolution_x * scale), int(scene.render.resolution_y * scale)
+        self.add_pass(FIXED_PASS, 1, "X")
         result = self.begin_result(0, 0, w, h)
-        rgba = np.zeros((h, w, 4), np.float32)
+        planes = {"Combined": np.zeros((h * w, 4), np.float32),
+                  "Depth": np.full((h * w, 1), BACKGROUND_DEPTH, np.float32),
+                  "IndexOB": np.zeros((h * w, 1), np.float32), FIXED_PASS: np.zeros((h * w, 1), np.float32)}
         cam = scene.camera
         if cam is None or cam.type != "CAMERA" or cam.data.type != "PERSP":
             self.report({"ERROR"}, "DeformRT Layered needs a perspective scene camera")
         else:
             self.update_stats("", "DeformRT: reading the scene")
-            layered, materials, _ = scene_arrays(depsgraph)
-            o, d = camera_rays(np.array(cam.matrix_world), vertical_fov(cam.data, w, h), w, h)
-            world = scene.world
-            bg = (0.05, 0.05, 0.05)
-            if world is not None and world.use_nodes and "Background" in world.node_tree.nodes:
-                node = world.node_tree.nodes["Background"]
-                bg = tuple(np.array(node.inputs["Color"].default_value[:3]) * node.inputs["Strength"].default_value)
+            layered, materials, objects = scene_arrays(depsgraph)
+            m = np.array(cam.matrix_world)
+            o, d = camera_rays(m, vertical_fov(cam.data, w, h), w, h)
             self.update_stats("", "DeformRT: tracing")
-            img = render(layered, materials, _lights(depsgraph), o, d, background=bg, ambient=0.0)
-            rgba[..., :3] = img.colour.reshape(h, w, 3)
-            rgba[..., 3] = 1.0
-        # Blender's rows run bottom-up
-        result.layers[0].passes["Combined"].rect = rgba[::-1].reshape(-1, 4)
+            img = render(layered, materials, _lights(depsgraph, settings.render_area_samples), o, d,
+                         background=_background(scene.world), ambient=0.0, max_depth=settings.render_max_depth,
+                         layered=settings.render_layered)
+            planes["Combined"][:, :3] = img.colour
+            planes["Combined"][:, 3] = 1.0
+            hit = img.index >= 0
+            # distance along the camera's axis, as Cycles writes it
+            planes["Depth"][hit, 0] = img.depth[hit] * (d[hit] @ -m[:3, 2] / np.linalg.norm(m[:3, 2]))
+            pass_index = np.array([obj.pass_index for obj in objects] + [0], np.float32)
+            planes["IndexOB"][:, 0] = pass_index[img.index]
+            planes[FIXED_PASS][:, 0] = img.fixed
+            self.update_stats("", f"DeformRT: {img.stats['rays']:,} rays, {int(img.fixed.sum()):,} pixels fixed")
+        for p in result.layers[0].passes:
+            if p.name in planes:
+                # Blender's rows run bottom-up
+                p.rect = planes[p.name].reshape(h, w, -1)[::-1].reshape(h * w, -1)
         self.end_result(result)
 
 
@@ -119,12 +185,14 @@ def _panels():
     """Blender's own panels that work with this engine (render size, output, camera, lights)."""
     keep = {"RENDER_PT_format", "RENDER_PT_output", "RENDER_PT_dimensions", "DATA_PT_lens", "DATA_PT_camera",
             "DATA_PT_light", "DATA_PT_EEVEE_light", "MATERIAL_PT_preview", "EEVEE_MATERIAL_PT_surface",
-            "WORLD_PT_context_world", "EEVEE_WORLD_PT_surface"}
-    return [getattr(bpy.types, name) for name in keep if hasattr(bpy.types, name)]
+            "WORLD_PT_context_world", "EEVEE_WORLD_PT_surface", "VIEWLAYER_PT_layer_passes",
+            "VIEWLAYER_PT_layer_passes_data"}
+    return [getattr(bpy.types, name) for name in keep if hasattr(getattr(bpy.types, name, None), "COMPAT_ENGINES")]
 
 
 def register():
     bpy.utils.register_class(DEFORMRT_RE_layered)
+    bpy.utils.register_class(DEFORMRT_PT_layered_render)
     for panel in _panels():
         panel.COMPAT_ENGINES.add(DEFORMRT_RE_layered.bl_idname)
 
@@ -132,4 +200,5 @@ def register():
 def unregister():
     for panel in _panels():
         panel.COMPAT_ENGINES.discard(DEFORMRT_RE_layered.bl_idname)
+    bpy.utils.unregister_class(DEFORMRT_PT_layered_render)
     bpy.utils.unregister_class(DEFORMRT_RE_layered)

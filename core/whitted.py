@@ -29,9 +29,18 @@ class Material:
 
 @dataclass(frozen=True)
 class Light:
-    kind: str  # "SUN" (vector: direction the light travels) or "POINT" (vector: position)
+    """"SUN" (vector: the direction the light travels; colour: irradiance), "POINT" (vector:
+    position; colour: intensity, falling as 1/r^2) or "AREA" (vector: centre; edges: the two
+    half-edge vectors of a rectangle, or of the box around an ellipse with ``disk``; it emits on
+    the side of u x v as a Lambertian surface; colour: intensity along that normal, P/pi for
+    P watts; sampled on a ``samples`` x ``samples`` grid, so shadows are soft)."""
+
+    kind: str
     vector: tuple
-    colour: tuple = (1.0, 1.0, 1.0)  # irradiance (sun) or intensity (point, falls as 1/r^2)
+    colour: tuple = (1.0, 1.0, 1.0)
+    edges: tuple = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    disk: bool = False
+    samples: int = 4
 
 
 @dataclass
@@ -106,7 +115,7 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
         trans, mirror, ior = props["transmission"][obj], props["mirror"][obj], props["ior"][obj]
         local = (1 - trans) * (1 - mirror)
         colour_local = _direct(scene, lights, p, nrm, d, albedo[obj], props["specular"][obj],
-                               props["shininess"][obj], ambient, stats)
+                               props["shininess"][obj], ambient, stats, layered)
         np.add.at(colour, pixel, weight * local[:, None] * colour_local)
         # Fresnel for the transmissive share (eq. 2.12-2.13); total internal reflection reflects all
         eta = np.where(entering, 1.0 / ior, ior)
@@ -154,29 +163,36 @@ def _shading_normal(scene, obj, face, bary):
     return out / np.maximum(np.linalg.norm(out, axis=1, keepdims=True), 1e-300)
 
 
-def _direct(scene, lights, p, nrm, d, albedo, spec, shine, ambient, stats):
-    """Blinn-Phong from each light that the point sees (shadow rays), plus ambient."""
+def _direct(scene, lights, p, nrm, d, albedo, spec, shine, ambient, stats, layered):
+    """Blinn-Phong from each light that the point sees (shadow rays), plus ambient. In layered
+    tracing a covered lower layer casts no shadow: a surface that is not shown must not darken
+    the one shown over it."""
     out = ambient * albedo
     start = p + nrm * scene.eps
-    for light in lights:
-        vec = np.asarray(light.vector, float)
-        if light.kind == "SUN":
+    for kind, vec, colour, facing in _emitters(lights):
+        if kind == "SUN":
             to_l = np.broadcast_to(-vec / np.linalg.norm(vec), p.shape)
             dist = np.full(len(p), np.inf)
-            power = np.broadcast_to(np.asarray(light.colour, float), p.shape)
-        elif light.kind == "POINT":
+            power = np.broadcast_to(colour, p.shape)
+        else:
             to_l = vec - p
             dist = np.linalg.norm(to_l, axis=1)
             to_l = to_l / np.maximum(dist, 1e-300)[:, None]
-            power = np.asarray(light.colour, float) / np.maximum(dist, 1e-300)[:, None] ** 2
-        else:
-            raise ValueError(f"light kind must be SUN or POINT, got {light.kind!r}")
+            power = colour / np.maximum(dist, 1e-300)[:, None] ** 2
+            if facing is not None:  # a patch of an area light: Lambertian, nothing behind it
+                power = power * np.maximum(0.0, -to_l @ facing)[:, None]
         lit = np.einsum("ij,ij->i", nrm, to_l) > 0
         if not lit.any():
             continue
         idx = np.flatnonzero(lit)
         shadow = scene.scene.occluded(start[idx], to_l[idx], max_dist=dist[idx] - 2 * scene.eps)
         stats["shadow_rays"] += len(idx)
+        if layered and shadow.any():
+            # only rays that met something pay for the layered check
+            blocked = idx[shadow]
+            vis = scene.first_visible(start[blocked], to_l[blocked])
+            shadow[shadow] = vis.t < dist[blocked] - 2 * scene.eps
+            stats["shadow_rays"] += len(blocked)
         idx = idx[~shadow]
         cos = np.einsum("ij,ij->i", nrm[idx], to_l[idx])
         half = to_l[idx] - d[idx]
@@ -184,3 +200,26 @@ def _direct(scene, lights, p, nrm, d, albedo, spec, shine, ambient, stats):
         blinn = np.maximum(0.0, np.einsum("ij,ij->i", nrm[idx], half)) ** shine[idx]
         out[idx] += power[idx] * (albedo[idx] * cos[:, None] + (spec[idx] * blinn)[:, None])
     return out
+
+
+def _emitters(lights):
+    """(kind, vector, colour, facing) per sun, point, or sample of an area light."""
+    for light in lights:
+        vec, colour = np.asarray(light.vector, float), np.asarray(light.colour, float)
+        if light.kind in ("SUN", "POINT"):
+            yield light.kind, vec, colour, None
+        elif light.kind == "AREA":
+            u, v = (np.asarray(e, float) for e in light.edges)
+            facing = np.cross(u, v)
+            if np.linalg.norm(facing) == 0 or light.samples < 1:
+                raise ValueError("an area light needs two independent edges and samples >= 1")
+            facing = facing / np.linalg.norm(facing)
+            s = (np.arange(light.samples) + 0.5) / light.samples * 2 - 1
+            a, b = (g.ravel() for g in np.meshgrid(s, s))
+            if light.disk:
+                keep = a**2 + b**2 <= 1
+                a, b = a[keep], b[keep]
+            for x, y in zip(a, b, strict=True):
+                yield "POINT", vec + x * u + y * v, colour / len(a), facing
+        else:
+            raise ValueError(f"light kind must be SUN, POINT or AREA, got {light.kind!r}")

@@ -123,10 +123,45 @@ def test_point_light_falls_off_with_the_square_of_distance():
         np.testing.assert_allclose(img.colour, 4.0 * (height / np.sqrt(r2)) / r2, rtol=1e-9)
 
 
+def test_square_area_light_gives_the_view_factor_irradiance():
+    """A Lambertian square of side 1 at 1 m over a white floor: E = pi L F, F from the
+    parallel-rectangle view factor (Howell's catalogue B-3) summed over four corner quarters."""
+    v, f = sheet(size=4.0, n=9, z=0.0)
+    scene = LayeredScene([(v, f)], [None])
+    o, d = down_rays(n=1)
+    o[:, :2] = 0.0
+    intensity = 3.0  # along the normal: P / pi
+    light = Light("AREA", (0, 0, 1.0), (intensity,) * 3, edges=((0.5, 0, 0), (0, -0.5, 0)), samples=32)
+    img = render(scene, [Material(colour=(1, 1, 1))], [light], o, d)
+    x = y = 0.5 / 1.0
+    corner = (x / np.sqrt(1 + x**2) * np.arctan(y / np.sqrt(1 + x**2))
+              + y / np.sqrt(1 + y**2) * np.arctan(x / np.sqrt(1 + y**2))) / (2 * np.pi)
+    radiance = intensity / 1.0  # I / area
+    np.testing.assert_allclose(img.colour, np.pi * radiance * 4 * corner, rtol=2e-3)
+    # it lights one side only: flipped (u x v pointing up) the floor gets nothing
+    dark = Light("AREA", (0, 0, 1.0), (intensity,) * 3, edges=((0.5, 0, 0), (0, 0.5, 0)), samples=4, disk=True)
+    np.testing.assert_array_equal(render(scene, [Material(colour=(1, 1, 1))], [dark], o, d).colour, 0.0)
+
+
+def test_a_covered_lower_layer_casts_no_shadow_on_the_layer_over_it():
+    v, f = sheet(size=1.0, n=20, z=0.0)
+    wiggle = v.copy()
+    wiggle[:, 2] += 0.002 * np.sin(37 * v[:, 0]) * np.cos(23 * v[:, 1])
+    up = np.tile([0.0, 0.0, 1.0], (len(v), 1))
+    scene = LayeredScene([(wiggle, f), (v, f)], [1, 2], global_normals=[up, up], probe_distance=0.01)
+    o, d = down_rays(n=30, spread=0.45)
+    mats = [Material(colour=(1, 0, 0)), Material(colour=(0, 0, 1))]
+    sun = [Light("SUN", (0.1, 0.0, -1.0), (1, 1, 1))]
+    img = render(scene, mats, sun, o, d)
+    assert img.fixed.any()
+    # the outer sheet everywhere, lit as if the inner one were not there
+    np.testing.assert_allclose(img.colour, np.tile([0, 0, 1 / np.sqrt(1.01)], (len(o), 1)), rtol=1e-6)
+
+
 @pytest.mark.parametrize("bad, match", [
     (dict(materials=[]), "materials"),
     (dict(max_depth=-1), "max_depth"),
-    (dict(lights=[Light("SPOT", (0, 0, 1))]), "SUN or POINT"),
+    (dict(lights=[Light("SPOT", (0, 0, 1))]), "SUN, POINT or AREA"),
 ])
 def test_bad_input_is_refused(bad, match):
     v, f = sheet(size=1.0, n=4)
