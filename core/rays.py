@@ -14,6 +14,7 @@ import warnings
 
 import numpy as np
 
+from . import embree_direct
 from .parallel import map_chunks, thread_count
 
 try:
@@ -31,6 +32,10 @@ __all__ = ["HAVE_EMBREE", "RayHits", "RayScene", "thread_count"]
 _MIN_RAYS_PER_CHUNK = 16384
 _device = None
 _warned_fallback = False
+
+
+def _new_embree_scene():
+    return _rtcs.EmbreeScene(_get_device())
 
 
 def _get_device():
@@ -52,11 +57,11 @@ class RayHits:
         values (about 1e-7 relative), enough to interpolate normals or attributes.
     """
 
-    __slots__ = ("t", "face", "bary", "_face_normals", "_normal")
+    __slots__ = ("t", "face", "bary", "_normals_of", "_normal")
 
-    def __init__(self, t, face, bary, face_normals):
+    def __init__(self, t, face, bary, normals_of):
         self.t, self.face, self.bary = t, face, bary
-        self._face_normals = face_normals
+        self._normals_of = normals_of
         self._normal = None
 
     @property
@@ -68,7 +73,7 @@ class RayHits:
         if self._normal is None:
             normal = np.zeros((len(self.face), 3))
             h = self.hit
-            normal[h] = self._face_normals[self.face[h]]
+            normal[h] = self._normals_of(self.face[h])
             self._normal = normal
         return self._normal
 
@@ -136,7 +141,7 @@ class RayScene:
                 raise ValueError("faces must hold whole-number vertex indices")
         return f.astype(np.int64)
 
-    def _set_vertices(self, vertices):
+    def _set_vertices(self, vertices, in_place=False):
         v = _as_points("vertices", vertices)
         f = self._faces
         if len(f) and (f.min() < 0 or f.max() >= len(v)):
@@ -145,28 +150,53 @@ class RayScene:
             )
         self.vertices = v
         self.faces = f
-        tri = v[f]
+        self._face_normals = None
+        if in_place:
+            self._mesh.move(v - self._center)
+            return
+        self._used = np.unique(f) if len(f) else np.zeros(0, np.int64)
         # Re-centre before float32 so precision follows the scene's size, not its distance from 0.
-        self._center = 0.5 * (tri.reshape(-1, 3).min(0) + tri.reshape(-1, 3).max(0)) if len(f) else np.zeros(3)
-        self._v0 = tri[:, 0] if len(f) else np.zeros((0, 3))
-        cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]) if len(f) else np.zeros((0, 3))
-        norm = np.linalg.norm(cross, axis=1)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            self.face_normals = np.where(norm[:, None] > 0, cross / norm[:, None], 0.0)
+        self._center = 0.5 * (v[self._used].min(0) + v[self._used].max(0)) if len(f) else np.zeros(3)
         self._scene = None
+        self._mesh = None
         self._fallback = None
         if not len(f):
             return
         if HAVE_EMBREE:
-            self._scene = _rtcs.EmbreeScene(_get_device())
-            # The flat (m,3,3) constructor copies about 30% faster than the indexed one.
-            _EmbreeTriangles(self._scene, tri - self._center)
+            self._scene = _new_embree_scene()
+            if embree_direct.available(_new_embree_scene):
+                self._mesh = embree_direct.Triangles(self._scene, v - self._center, f)
+            else:
+                # The flat (m,3,3) constructor copies about 30% faster than the indexed one.
+                _EmbreeTriangles(self._scene, v[f] - self._center)
         else:
             self._fallback = _fallback_intersector(v, f)
 
     def update(self, vertices) -> None:
-        """New positions for the same faces (the BVH is rebuilt: embreex exposes no refit)."""
-        self._set_vertices(vertices)
+        """New positions for the same faces: written into the buffers Embree shares and
+        committed again, unless the scene moved far from the centre it was built about (float32
+        round-off grows with that distance), when it is built afresh."""
+        v = np.asarray(vertices)
+        in_place = self._mesh is not None and v.shape == self.vertices.shape and np.isfinite(v).all()
+        if in_place:
+            used = v[self._used]
+            lo, hi = used.min(0), used.max(0)
+            in_place = np.linalg.norm(0.5 * (lo + hi) - self._center) <= np.linalg.norm(hi - lo)
+        self._set_vertices(vertices, in_place=in_place)
+
+    @property
+    def face_normals(self) -> np.ndarray:
+        """Unit geometric normal per face in its winding order (0 for a degenerate face)."""
+        if self._face_normals is None:
+            self._face_normals = self.normals_of(slice(None))
+        return self._face_normals
+
+    def normals_of(self, face) -> np.ndarray:
+        tri = self.vertices[self.faces[face]]
+        cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        norm = np.linalg.norm(cross, axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(norm[:, None] > 0, cross / norm[:, None], 0.0)
 
     @property
     def backend(self) -> str:
@@ -189,7 +219,7 @@ class RayScene:
             tmin = _as_range("min_dist", min_dist, n, 0.0)
             idx = np.flatnonzero(tmax >= tmin)
         if not len(self.faces) or (idx is not None and not len(idx)):
-            return RayHits(t, face, bary, self.face_normals)
+            return RayHits(t, face, bary, self.normals_of)
         if idx is None:
             oo, dd, lo, hi = o, d, None, tmax
         else:
@@ -209,7 +239,7 @@ class RayScene:
             t, face, bary = tf, ff, uv
         else:
             t[idx], face[idx], bary[idx] = tf, ff, uv
-        return RayHits(t, face, bary, self.face_normals)
+        return RayHits(t, face, bary, self.normals_of)
 
     def occluded(self, origins, directions, max_dist=None, min_dist=None) -> np.ndarray:
         """True where something lies between ``min_dist`` and ``max_dist`` along the ray."""
@@ -263,10 +293,10 @@ class RayScene:
 
     def _refine_t(self, o, d, face, t32, tmax):
         """Float64 distance to the hit triangle's plane, kept inside [0, tmax]."""
-        n = self.face_normals[face]
+        n = self.normals_of(face)
         denom = np.einsum("ij,ij->i", d, n)
         with np.errstate(divide="ignore", invalid="ignore"):
-            t = np.einsum("ij,ij->i", self._v0[face] - o, n) / denom
+            t = np.einsum("ij,ij->i", self.vertices[self.faces[face, 0]] - o, n) / denom
         # Grazing rays: the plane solve is ill-conditioned; keep Embree's distance.
         bad = ~np.isfinite(t) | (np.abs(denom) < 1e-6)
         t[bad] = t32[bad]
