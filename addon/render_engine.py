@@ -14,11 +14,14 @@ them, written as Cycles writes them; and "DeformRT Fixed", 1 where layered traci
 a pixel shows (for compositing or checking a scene).
 """
 
+import time
+from dataclasses import dataclass
+
 import bpy
 import numpy as np
 
 from ..core.layered_trace import LayeredScene
-from ..core.whitted import Light, Material, camera_rays, render
+from ..core.whitted import Image, Light, Material, camera_rays, render
 from . import mesh_io
 from .layer_resolve import GLOBAL_NORMAL_ATTRIBUTE
 
@@ -107,6 +110,32 @@ def vertical_fov(cam, width, height):
     return 2 * np.arctan(half)
 
 
+@dataclass
+class Frame:
+    image: Image
+    depth: np.ndarray  # along the camera's axis, as Cycles writes it
+    objects: list  # the Blender object of each object index
+    seconds: dict  # read_build_s, trace_s
+
+
+def render_frame(depsgraph, width, height) -> Frame:
+    """The scene camera's view as this engine renders it, with the scene's DeformRT settings.
+    The world's colour lights every surface as ambient (a uniform sky of radiance L gives a
+    Lambert surface albedo L), as it does in Cycles, without occlusion."""
+    scene = depsgraph.scene
+    settings = scene.deformrt
+    t0 = time.perf_counter()
+    layered, materials, objects = scene_arrays(depsgraph)
+    t1 = time.perf_counter()
+    m = np.array(scene.camera.matrix_world)
+    o, d = camera_rays(m, vertical_fov(scene.camera.data, width, height), width, height)
+    sky = _background(scene.world)
+    img = render(layered, materials, _lights(depsgraph, settings.render_area_samples), o, d, background=sky,
+                 ambient=np.asarray(sky), max_depth=settings.render_max_depth, layered=settings.render_layered)
+    depth = img.depth * (d @ -m[:3, 2] / np.linalg.norm(m[:3, 2]))
+    return Frame(img, depth, objects, {"read_build_s": t1 - t0, "trace_s": time.perf_counter() - t1})
+
+
 class DEFORMRT_PT_layered_render(bpy.types.Panel):
     bl_idname = "DEFORMRT_PT_layered_render"
     bl_label = "DeformRT Layered"
@@ -145,7 +174,6 @@ class DEFORMRT_RE_layered(bpy.types.RenderEngine):
 
     def render(self, depsgraph):
         scene = depsgraph.scene
-        settings = scene.deformrt
         scale = scene.render.resolution_percentage / 100.0
         w, h = int(scene.render.resolution_x * scale), int(scene.render.resolution_y * scale)
         self.add_pass(FIXED_PASS, 1, "X")
@@ -157,20 +185,14 @@ class DEFORMRT_RE_layered(bpy.types.RenderEngine):
         if cam is None or cam.type != "CAMERA" or cam.data.type != "PERSP":
             self.report({"ERROR"}, "DeformRT Layered needs a perspective scene camera")
         else:
-            self.update_stats("", "DeformRT: reading the scene")
-            layered, materials, objects = scene_arrays(depsgraph)
-            m = np.array(cam.matrix_world)
-            o, d = camera_rays(m, vertical_fov(cam.data, w, h), w, h)
-            self.update_stats("", "DeformRT: tracing")
-            img = render(layered, materials, _lights(depsgraph, settings.render_area_samples), o, d,
-                         background=_background(scene.world), ambient=0.0, max_depth=settings.render_max_depth,
-                         layered=settings.render_layered)
+            self.update_stats("", "DeformRT: reading the scene and tracing")
+            frame = render_frame(depsgraph, w, h)
+            img = frame.image
             planes["Combined"][:, :3] = img.colour
             planes["Combined"][:, 3] = 1.0
             hit = img.index >= 0
-            # distance along the camera's axis, as Cycles writes it
-            planes["Depth"][hit, 0] = img.depth[hit] * (d[hit] @ -m[:3, 2] / np.linalg.norm(m[:3, 2]))
-            pass_index = np.array([obj.pass_index for obj in objects] + [0], np.float32)
+            planes["Depth"][hit, 0] = frame.depth[hit]
+            pass_index = np.array([obj.pass_index for obj in frame.objects] + [0], np.float32)
             planes["IndexOB"][:, 0] = pass_index[img.index]
             planes[FIXED_PASS][:, 0] = img.fixed
             self.update_stats("", f"DeformRT: {img.stats['rays']:,} rays, {int(img.fixed.sum()):,} pixels fixed")

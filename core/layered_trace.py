@@ -88,6 +88,39 @@ class LayeredScene:
         length = np.linalg.norm(out, axis=1, keepdims=True)
         return np.divide(out, length, out=np.zeros_like(out), where=length > 0)
 
+    def blocked(self, origins, directions, max_dist, layered=True, leaving=None) -> np.ndarray:
+        """Whether a shown surface lies on each ray before ``max_dist`` (shadow rays). With
+        ``layered``, a lower layer that a higher one covers blocks nothing, and neither does a
+        lower layer met within the probe distance of the higher-layer surface the ray leaves
+        (``leaving``: per ray, the object it starts on, -1 for none): that is a poke-through
+        the probe from its own side missed, and what is shown must not sit in its shadow."""
+        out = self.scene.occluded(origins, directions, max_dist=max_dist)
+        if not layered or not out.any():
+            return out
+        ask = np.flatnonzero(out)
+        o, d = np.asarray(origins, float)[ask], np.asarray(directions, float)[ask]
+        dist = np.broadcast_to(np.asarray(max_dist, float), out.shape)[ask].copy()
+        if self._layer_scenes:
+            # nothing covers the outermost layer: a ray it stops needs no layered tracing
+            top, _ = self._layer_scenes[max(self._layer_scenes)]
+            by_top = top.occluded(o, d, max_dist=dist)
+            ask, o, d, dist = ask[~by_top], o[~by_top], d[~by_top], dist[~by_top]
+        own = self.object_layer[np.full(len(out), -1) if leaving is None else np.asarray(leaving)][ask]
+        travelled = np.zeros(len(ask))
+        for _ in range(4):
+            vis = self.first_visible(o, d)
+            layer = self.object_layer[vis.obj]
+            poke = (vis.obj >= 0) & (layer >= 0) & (layer < own) & (travelled + vis.t <= self.probe)
+            out[ask[~poke]] = vis.t[~poke] < dist[~poke]
+            if not poke.any():
+                break
+            step = vis.t[poke] + self.eps
+            ask, o, d, own = ask[poke], o[poke] + d[poke] * step[:, None], d[poke], own[poke]
+            dist, travelled = dist[poke] - step, travelled[poke] + step
+        else:
+            out[ask] = False
+        return out
+
     def first_visible(self, origins, directions, layered=True, max_skips=16, min_dist=0.0) -> Visible:
         """The hit each ray shows; with ``layered`` False, plain ray tracing. ``min_dist``
         skips what lies closer (a ray leaving a surface starts on it)."""

@@ -114,8 +114,9 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
         nrm = np.where(entering[:, None], nrm, -nrm)  # faces the incoming ray
         trans, mirror, ior = props["transmission"][obj], props["mirror"][obj], props["ior"][obj]
         local = (1 - trans) * (1 - mirror)
-        colour_local = _direct(scene, lights, p, nrm, d, albedo[obj], props["specular"][obj],
-                               props["shininess"][obj], ambient, stats, layered)
+        start = _shadow_origin(scene, obj, face, bary, p, np.where(entering, 1.0, -1.0)) + nrm * scene.eps
+        colour_local = _direct(scene, lights, p, start, nrm, d, albedo[obj], props["specular"][obj],
+                               props["shininess"][obj], ambient, stats, layered, obj)
         np.add.at(colour, pixel, weight * local[:, None] * colour_local)
         # Fresnel for the transmissive share (eq. 2.12-2.13); total internal reflection reflects all
         eta = np.where(entering, 1.0 / ior, ior)
@@ -163,12 +164,26 @@ def _shading_normal(scene, obj, face, bary):
     return out / np.maximum(np.linalg.norm(out, axis=1, keepdims=True), 1e-300)
 
 
-def _direct(scene, lights, p, nrm, d, albedo, spec, shine, ambient, stats, layered):
+def _shadow_origin(scene, obj, face, bary, p, side):
+    """Where shadow rays should leave a smooth-shaded hit: the point moved out to the smooth
+    surface its vertex normals describe (Hanika, "Hacking the shadow terminator", Ray Tracing
+    Gems II ch. 4), so a coarse or folded triangle does not shadow itself where its shading
+    says it is lit. ``side``: +1 on the side the normals point to, -1 on the other."""
+    glob = scene.first_face[obj] + face
+    corners = scene.scene.faces[glob]
+    v = scene.scene.vertices[corners]
+    n = np.vstack(scene.shading_normals)[corners] * side[:, None, None]
+    w = np.column_stack([1 - bary[:, 0] - bary[:, 1], bary[:, 0], bary[:, 1]])
+    rel = p[:, None, :] - v
+    rel -= np.minimum(0.0, np.einsum("ijk,ijk->ij", rel, n))[..., None] * n
+    return np.einsum("ij,ijk->ik", w, v + rel)
+
+
+def _direct(scene, lights, p, start, nrm, d, albedo, spec, shine, ambient, stats, layered, obj):
     """Blinn-Phong from each light that the point sees (shadow rays), plus ambient. In layered
     tracing a covered lower layer casts no shadow: a surface that is not shown must not darken
-    the one shown over it."""
+    the one shown over it. Shadow rays leave from ``start``."""
     out = ambient * albedo
-    start = p + nrm * scene.eps
     for kind, vec, colour, facing in _emitters(lights):
         if kind == "SUN":
             to_l = np.broadcast_to(-vec / np.linalg.norm(vec), p.shape)
@@ -185,14 +200,8 @@ def _direct(scene, lights, p, nrm, d, albedo, spec, shine, ambient, stats, layer
         if not lit.any():
             continue
         idx = np.flatnonzero(lit)
-        shadow = scene.scene.occluded(start[idx], to_l[idx], max_dist=dist[idx] - 2 * scene.eps)
+        shadow = scene.blocked(start[idx], to_l[idx], dist[idx] - 2 * scene.eps, layered=layered, leaving=obj[idx])
         stats["shadow_rays"] += len(idx)
-        if layered and shadow.any():
-            # only rays that met something pay for the layered check
-            blocked = idx[shadow]
-            vis = scene.first_visible(start[blocked], to_l[blocked])
-            shadow[shadow] = vis.t < dist[blocked] - 2 * scene.eps
-            stats["shadow_rays"] += len(blocked)
         idx = idx[~shadow]
         cos = np.einsum("ij,ij->i", nrm[idx], to_l[idx])
         half = to_l[idx] - d[idx]

@@ -67,3 +67,43 @@ def render_cycles(scene, filepath, resolution=(480, 480), samples=16):
     start = time.perf_counter()
     bpy.ops.render.render(write_still=True)
     return time.perf_counter() - start
+
+
+def render_passes(scene, folder, passes=("Image",)):
+    """Render the scene camera once with its engine and read the named passes back as float
+    arrays through the compositor's File Output node (linear, no view transform), rows top to
+    bottom: "Image" as (h, w, 4), any other pass ("Depth", "IndexOB", ...) as (h, w)."""
+    from pathlib import Path
+
+    import numpy as np
+
+    folder = Path(folder)
+    scene.use_nodes = True
+    tree = scene.node_tree
+    tree.nodes.clear()
+    layers = tree.nodes.new("CompositorNodeRLayers")
+    out = tree.nodes.new("CompositorNodeOutputFile")
+    out.base_path = str(folder) + "/"
+    out.format.file_format = "OPEN_EXR"
+    out.format.color_mode = "RGBA"
+    out.file_slots.clear()
+    for name in passes:
+        out.file_slots.new(name)
+        tree.links.new(layers.outputs[name], out.inputs[name])
+    if bpy.ops.render.render() != {"FINISHED"}:
+        raise RuntimeError(f"rendering {scene.name} with {scene.render.engine} failed")
+    scale = scene.render.resolution_percentage / 100
+    w, h = int(scene.render.resolution_x * scale), int(scene.render.resolution_y * scale)
+    planes = {}
+    for name in passes:
+        path = folder / f"{name}{scene.frame_current:04d}.exr"
+        img = bpy.data.images.load(str(path))
+        px = np.empty(w * h * 4, np.float32)
+        img.pixels.foreach_get(px)
+        bpy.data.images.remove(img)
+        path.unlink()
+        px = px.reshape(h, w, 4)[::-1]
+        planes[name] = px if name == "Image" else px[..., 0]
+    scene.node_tree.nodes.clear()
+    scene.use_nodes = False
+    return planes

@@ -1,38 +1,22 @@
 """The DEFORMRT_LAYERED render engine through bpy.ops.render.render in background mode."""
 
+import importlib
+
 import bpy
 import numpy as np
+import pytest
 
 
-def _render(scene, tmp_path, size=(32, 32), passes=("Image",)):
-    """The named passes of one bpy.ops.render.render, read back through the compositor's File
-    Output node (linear floats, no view transform), rows top to bottom. One pass: its array."""
+@pytest.fixture
+def studio(extension):
+    return importlib.import_module(f"{extension.__name__}.sample_scenes.studio")
+
+
+def _render(studio, scene, tmp_path, size=(32, 32), passes=("Image",)):
+    """The named passes of one render (one pass: its array)."""
     scene.render.resolution_x, scene.render.resolution_y = size
     scene.render.resolution_percentage = 100
-    scene.use_nodes = True
-    tree = scene.node_tree
-    tree.nodes.clear()
-    layers = tree.nodes.new("CompositorNodeRLayers")
-    out = tree.nodes.new("CompositorNodeOutputFile")
-    folder = tmp_path / "passes"
-    out.base_path = str(folder) + "/"
-    out.format.file_format = "OPEN_EXR"
-    out.format.color_mode = "RGBA"
-    out.file_slots.clear()
-    for name in passes:
-        out.file_slots.new(name)
-        tree.links.new(layers.outputs[name], out.inputs[name])
-    assert bpy.ops.render.render() == {"FINISHED"}
-    planes = {}
-    for name in passes:
-        path = folder / f"{name}{scene.frame_current:04d}.exr"
-        img = bpy.data.images.load(str(path))
-        px = np.empty(size[0] * size[1] * 4, np.float32)
-        img.pixels.foreach_get(px)
-        bpy.data.images.remove(img)
-        path.unlink()
-        px = px.reshape(size[1], size[0], 4)[::-1]
-        planes[name] = px if name == "Image" else px[..., 0]
+    planes = studio.render_passes(scene, tmp_path / "passes", passes)
     return planes[passes[0]] if len(passes) == 1 else planes
 
 
@@ -65,14 +49,14 @@ def _engine(scene):
     return scene
 
 
-def test_engine_is_registered_and_shades_a_sphere_by_lambert(extension, clean_scene, tmp_path):
+def test_engine_is_registered_and_shades_a_sphere_by_lambert(studio, clean_scene, tmp_path):
     assert "DEFORMRT_LAYERED" in {getattr(e, "bl_idname", None) for e in bpy.types.RenderEngine.__subclasses__()}
     scene = _engine(clean_scene)
     _stage(scene)
     bpy.ops.mesh.primitive_uv_sphere_add(radius=1.0, segments=64, ring_count=32)
     bpy.ops.object.shade_smooth()
     _material(bpy.context.active_object, (0.5, 0.4, 0.3))
-    px = _render(scene, tmp_path)
+    px = _render(studio, scene, tmp_path)
     # straight under the sun and the camera: E albedo cos(0) / pi, as Cycles shades a Lambert surface
     centre = px[15:17, 15:17, :3].reshape(-1, 3)
     np.testing.assert_allclose(centre, np.tile([1.0, 0.8, 0.6], (4, 1)) / np.pi, rtol=0.01)
@@ -105,27 +89,27 @@ def _garment_pair(scene):
     return made
 
 
-def test_coincident_garments_show_the_outer_layer_only(extension, clean_scene, tmp_path):
+def test_coincident_garments_show_the_outer_layer_only(studio, clean_scene, tmp_path):
     scene = _engine(clean_scene)
     _stage(scene)
     _garment_pair(scene)
-    px = _render(scene, tmp_path)
+    px = _render(studio, scene, tmp_path)
     covered = px[..., :3].sum(-1) > 0
     assert covered.mean() > 0.1
     assert (px[covered, 0] < 1e-6).all() and (px[covered, 2] > 0.5).all()  # only the jacket's blue
     # the same scene untagged is plain ray tracing: the shirt's red shows where it pokes out
     for name in ("Shirt", "Jacket"):
         bpy.data.objects[name].deformrt.role = "NONE"
-    px = _render(scene, tmp_path)
+    px = _render(studio, scene, tmp_path)
     assert (px[..., 0] > 0.3).mean() > 0.05
     # as does the Layered switch off
     for name in ("Shirt", "Jacket"):
         bpy.data.objects[name].deformrt.role = "GARMENT"
     scene.deformrt.render_layered = False
-    np.testing.assert_array_equal(_render(scene, tmp_path), px)
+    np.testing.assert_array_equal(_render(studio, scene, tmp_path), px)
 
 
-def test_depth_object_index_and_fixed_passes(extension, clean_scene, tmp_path):
+def test_depth_object_index_and_fixed_passes(studio, clean_scene, tmp_path):
     """A floor 5 m below the camera (depth 5 everywhere: Depth is along the camera's axis) and a
     sphere on it; the sphere's pass index where it shows; the fixed pass where a covered shirt
     would have shown."""
@@ -139,7 +123,7 @@ def test_depth_object_index_and_fixed_passes(extension, clean_scene, tmp_path):
     bpy.ops.mesh.primitive_uv_sphere_add(radius=0.5, location=(0, 0, 0.5), segments=64, ring_count=32)
     ball = bpy.context.active_object
     ball.pass_index = 7
-    px = _render(scene, tmp_path, passes=("Depth", "IndexOB", "DeformRT Fixed"))
+    px = _render(studio, scene, tmp_path, passes=("Depth", "IndexOB", "DeformRT Fixed"))
     on_floor = px["IndexOB"] == 3
     assert on_floor.mean() > 0.8 and (px["IndexOB"] == 7).sum() > 20
     np.testing.assert_allclose(px["Depth"][on_floor], 5.0, rtol=1e-5)
@@ -152,9 +136,9 @@ def test_depth_object_index_and_fixed_passes(extension, clean_scene, tmp_path):
         bpy.data.objects.remove(obj)
     shirt, jacket = _garment_pair(scene)
     shirt.pass_index, jacket.pass_index = 1, 2
-    layered = _render(scene, tmp_path, passes=("IndexOB", "DeformRT Fixed"))
+    layered = _render(studio, scene, tmp_path, passes=("IndexOB", "DeformRT Fixed"))
     scene.deformrt.render_layered = False
-    plain = _render(scene, tmp_path, passes=("IndexOB", "DeformRT Fixed"))
+    plain = _render(studio, scene, tmp_path, passes=("IndexOB", "DeformRT Fixed"))
     assert not plain["DeformRT Fixed"].any()
     shows_shirt = plain["IndexOB"] == 1
     assert 0.05 < shows_shirt.mean() < 0.9
@@ -162,7 +146,7 @@ def test_depth_object_index_and_fixed_passes(extension, clean_scene, tmp_path):
     assert not (layered["IndexOB"] == 1).any()
 
 
-def test_area_light_lights_one_side_as_blender_sizes_it(extension, clean_scene, tmp_path):
+def test_area_light_lights_one_side_as_blender_sizes_it(studio, clean_scene, tmp_path):
     """A 1 m square area light of P watts 1 m over a white floor: under its centre E = pi L F,
     with L = P / (pi A) and F the parallel-rectangle view factor (Howell's catalogue B-3); the
     floor sends E / pi back (Cycles: 2.246 at 256 samples for 30 W, this formula 2.287 at the
@@ -175,11 +159,11 @@ def test_area_light_lights_one_side_as_blender_sizes_it(extension, clean_scene, 
     light.data.energy, light.data.size, light.location = 30.0, 1.0, (0, 0, 1.0)
     scene.collection.objects.link(light)
     scene.deformrt.render_area_samples = 24
-    px = _render(scene, tmp_path, size=(15, 15))  # the centre pixel looks straight down
+    px = _render(studio, scene, tmp_path, size=(15, 15))  # the centre pixel looks straight down
     x = y = 0.5
     corner = (x / np.sqrt(1 + x**2) * np.arctan(y / np.sqrt(1 + x**2))
               + y / np.sqrt(1 + y**2) * np.arctan(x / np.sqrt(1 + y**2))) / (2 * np.pi)
     np.testing.assert_allclose(px[7, 7, :3], (30.0 / np.pi) * 4 * corner, rtol=2e-3)
     assert px[0, 0, 0] < px[7, 7, 0]
     light.rotation_euler = (np.pi, 0.0, 0.0)  # turned to face up: the floor is dark
-    np.testing.assert_array_equal(_render(scene, tmp_path, size=(15, 15))[..., :3], 0.0)
+    np.testing.assert_array_equal(_render(studio, scene, tmp_path, size=(15, 15))[..., :3], 0.0)

@@ -43,6 +43,27 @@ def test_lambert_sphere_under_a_sun():
     np.testing.assert_array_equal(img.colour[~covered], 0.0)
 
 
+def test_a_coarse_smooth_sphere_does_not_shadow_itself():
+    """A convex body casts no shadow on itself: on a 320-triangle sphere, smooth shading must
+    give E albedo max(0, n_s.l) with n_s the interpolated vertex normal everywhere, also near
+    the terminator, where the flat triangles would shadow the smoothly lit points (the shadow
+    terminator problem: 48 pixels here without the offset shadow origins)."""
+    sphere = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
+    scene = LayeredScene([(sphere.vertices, sphere.faces)], [None])
+    to_sun = np.array([1.0, 0.0, 0.35]) / np.linalg.norm([1.0, 0.0, 0.35])
+    cam = np.eye(4)
+    cam[:3, 3] = (0, 0, 5)
+    o, d = camera_rays(cam, np.radians(30), 64, 64)
+    img = render(scene, [Material(colour=(1, 1, 1))], [Light("SUN", tuple(-to_sun), (1, 1, 1))], o, d)
+    hit = img.index == 0
+    vis = scene.first_visible(o[hit], d[hit])
+    n = scene.shading_normals[0][sphere.faces[vis.face]]  # the vertex normals it shades with
+    u, v = vis.bary[:, :1], vis.bary[:, 1:]
+    smooth = (1 - u - v) * n[:, 0] + u * n[:, 1] + v * n[:, 2]
+    smooth /= np.linalg.norm(smooth, axis=1, keepdims=True)
+    np.testing.assert_allclose(img.colour[hit, 0], np.maximum(0.0, smooth @ to_sun), atol=1e-9)
+
+
 def test_glass_slab_transmits_what_fresnel_leaves_with_every_internal_bounce():
     """Normal incidence on glass (n = 1.5), a sky only below: T = (1-R)/(1+R) summed over bounces."""
     v, f = slab(0.1)
