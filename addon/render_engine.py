@@ -198,8 +198,9 @@ class DEFORMRT_RE_layered(bpy.types.RenderEngine):
             self.update_stats("", f"DeformRT: {img.stats['rays']:,} rays, {int(img.fixed.sum()):,} pixels fixed")
         for p in result.layers[0].passes:
             if p.name in planes:
-                # Blender's rows run bottom-up
-                p.rect = planes[p.name].reshape(h, w, -1)[::-1].reshape(h * w, -1)
+                # Blender's rows run bottom-up; foreach_set copies in one go (assigning rect goes pixel
+                # by pixel: 0.25 s per 800x800 pass)
+                p.rect.foreach_set(np.ascontiguousarray(planes[p.name].reshape(h, w, -1)[::-1]).ravel())
         self.end_result(result)
 
 
