@@ -119,20 +119,25 @@ def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
     best_w = np.zeros((n, 3))
     best_d = np.zeros(n)
     tris = vertices[faces]  # (m, 3, 3)
+    # float32 about the points' centre, so precision follows the scene's size
+    centre = points.mean(0)
+    tris32, points32 = (tris - centre).astype(np.float32), (points - centre).astype(np.float32)
 
     def run(sl):
         cand = incident[near[sl]].reshape(sl.stop - sl.start, -1)  # (c, width), -1 padded
         width = cand.shape[1]
-        tri = tris[np.maximum(cand, 0)].reshape(-1, 3, 3)
-        p = np.repeat(points[sl], width, axis=0)
+        # pick in float32 (half the memory traffic), then solve the pick again in float64
+        tri = tris32[np.maximum(cand, 0)].reshape(-1, 3, 3)
+        p = np.repeat(points32[sl], width, axis=0)
         w = closest_point_on_triangles(p, tri[:, 0], tri[:, 1], tri[:, 2])
-        d = np.linalg.norm(p - np.einsum("ij,ijk->ik", w, tri), axis=1).reshape(-1, width)
+        off = p - np.einsum("ij,ijk->ik", w, tri)
+        d = np.einsum("ij,ij->i", off, off).reshape(-1, width)
         d[cand < 0] = np.inf
-        pick = np.argmin(d, axis=1)
-        rows = np.arange(len(pick))
-        best_t[sl] = cand[rows, pick]
-        best_w[sl] = w.reshape(-1, width, 3)[rows, pick]
-        best_d[sl] = d[rows, pick]
+        pick = np.maximum(cand[np.arange(len(d)), np.argmin(d, axis=1)], 0)  # no triangle at all: triangle 0
+        tri = tris[pick]
+        best_t[sl] = pick
+        best_w[sl] = closest_point_on_triangles(points[sl], tri[:, 0], tri[:, 1], tri[:, 2])
+        best_d[sl] = np.linalg.norm(points[sl] - np.einsum("ij,ijk->ik", best_w[sl], tri), axis=1)
 
     # numpy releases the GIL on these array sizes: slices run side by side on the cores
     map_chunks(run, n, chunk)

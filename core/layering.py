@@ -390,10 +390,18 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     corr, normals, vseg, vseg2, probe_len = [], [], [], [], []
     far = 0
     skirts = []
+    # one search for every garment that needs one: the body's kd-tree and fans are made once
+    ask = [i for i in range(n_g) if g_corr_in[i] is None]
+    found = {}
+    if ask:
+        whole = nearest_on_surface(np.vstack([garr[i][0] for i in ask]), bv, bf)
+        start = np.cumsum([0] + [len(garr[i][0]) for i in ask])
+        found = {i: BodyCorrespondence(whole.triangle[a:b], whole.bary[a:b], whole.distance[a:b])
+                 for i, a, b in zip(ask, start[:-1], start[1:], strict=True)}
     for i, (v, f) in enumerate(garr):
         c = g_corr_in[i]
         if c is None:
-            c = nearest_on_surface(v, bv, bf)
+            c = found[i]
         elif len(c.triangle) != len(v) or (len(c.triangle) and c.triangle.max() >= len(bf)):
             raise ValueError(f"correspondence[{i}] is for another mesh: {len(c.triangle)} points for "
                              f"{len(v)} vertices, or triangles beyond the body's {len(bf)}")
