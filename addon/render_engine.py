@@ -15,7 +15,6 @@ a pixel shows (for compositing or checking a scene).
 """
 
 import time
-from dataclasses import dataclass
 
 import bpy
 import numpy as np
@@ -110,30 +109,37 @@ def vertical_fov(cam, width, height):
     return 2 * np.arctan(half)
 
 
-@dataclass
-class Frame:
-    image: Image
-    depth: np.ndarray  # along the camera's axis, as Cycles writes it
-    objects: list  # the Blender object of each object index
-    seconds: dict  # read_build_s, trace_s
+class FrameTracer:
+    """The scene camera's view as this engine renders it, with the scene's DeformRT settings,
+    band by band: the scene is read and its ray scenes built once, then any run of rows is
+    traced on its own (so a render can show progress and stop between bands). The world's
+    colour lights every surface as ambient (a uniform sky of radiance L gives a Lambert
+    surface albedo L), as it does in Cycles, without occlusion."""
 
+    def __init__(self, depsgraph, width, height):
+        scene = depsgraph.scene
+        settings = scene.deformrt
+        t0 = time.perf_counter()
+        self.scene, self.materials, self.objects = scene_arrays(depsgraph)
+        self.seconds = {"read_build_s": time.perf_counter() - t0, "trace_s": 0.0}
+        m = np.array(scene.camera.matrix_world)
+        self.width, self.height = width, height
+        self.origins, self.directions = camera_rays(m, vertical_fov(scene.camera.data, width, height), width, height)
+        # distance along the ray -> along the camera's axis, as Cycles writes depth
+        self._to_depth = self.directions @ -m[:3, 2] / np.linalg.norm(m[:3, 2])
+        self.sky = _background(scene.world)
+        self.lights = _lights(depsgraph, settings.render_area_samples)
+        self.max_depth, self.layered = settings.render_max_depth, settings.render_layered
 
-def render_frame(depsgraph, width, height) -> Frame:
-    """The scene camera's view as this engine renders it, with the scene's DeformRT settings.
-    The world's colour lights every surface as ambient (a uniform sky of radiance L gives a
-    Lambert surface albedo L), as it does in Cycles, without occlusion."""
-    scene = depsgraph.scene
-    settings = scene.deformrt
-    t0 = time.perf_counter()
-    layered, materials, objects = scene_arrays(depsgraph)
-    t1 = time.perf_counter()
-    m = np.array(scene.camera.matrix_world)
-    o, d = camera_rays(m, vertical_fov(scene.camera.data, width, height), width, height)
-    sky = _background(scene.world)
-    img = render(layered, materials, _lights(depsgraph, settings.render_area_samples), o, d, background=sky,
-                 ambient=np.asarray(sky), max_depth=settings.render_max_depth, layered=settings.render_layered)
-    depth = img.depth * (d @ -m[:3, 2] / np.linalg.norm(m[:3, 2]))
-    return Frame(img, depth, objects, {"read_build_s": t1 - t0, "trace_s": time.perf_counter() - t1})
+    def rows(self, start, stop) -> tuple[Image, np.ndarray]:
+        """(image, depth) of rows start..stop-1, counted from the top."""
+        t0 = time.perf_counter()
+        sl = slice(start * self.width, stop * self.width)
+        img = render(self.scene, self.materials, self.lights, self.origins[sl], self.directions[sl],
+                     background=self.sky, ambient=np.asarray(self.sky), max_depth=self.max_depth,
+                     layered=self.layered)
+        self.seconds["trace_s"] += time.perf_counter() - t0
+        return img, img.depth * self._to_depth[sl]
 
 
 class DEFORMRT_PT_layered_render(bpy.types.Panel):
@@ -177,31 +183,39 @@ class DEFORMRT_RE_layered(bpy.types.RenderEngine):
         scale = scene.render.resolution_percentage / 100.0
         w, h = int(scene.render.resolution_x * scale), int(scene.render.resolution_y * scale)
         self.add_pass(FIXED_PASS, 1, "X")
-        result = self.begin_result(0, 0, w, h)
-        planes = {"Combined": np.zeros((h * w, 4), np.float32),
-                  "Depth": np.full((h * w, 1), BACKGROUND_DEPTH, np.float32),
-                  "IndexOB": np.zeros((h * w, 1), np.float32), FIXED_PASS: np.zeros((h * w, 1), np.float32)}
         cam = scene.camera
         if cam is None or cam.type != "CAMERA" or cam.data.type != "PERSP":
             self.report({"ERROR"}, "DeformRT Layered needs a perspective scene camera")
-        else:
-            self.update_stats("", "DeformRT: reading the scene and tracing")
-            frame = render_frame(depsgraph, w, h)
-            img = frame.image
-            planes["Combined"][:, :3] = img.colour
-            planes["Combined"][:, 3] = 1.0
+            self.end_result(self.begin_result(0, 0, w, h))
+            return
+        self.update_stats("", "DeformRT: reading the scene")
+        tracer = FrameTracer(depsgraph, w, h)
+        pass_index = np.array([obj.pass_index for obj in tracer.objects] + [0], np.float32)
+        # bands of about 64k pixels: each shows as soon as it is done, Esc stops between them
+        band = max(1, min(h, 65536 // max(w, 1)))
+        rays = fixed = 0
+        for top in range(0, h, band):
+            bottom = min(h, top + band)
+            img, depth = tracer.rows(top, bottom)
+            n = len(img.index)
             hit = img.index >= 0
-            planes["Depth"][hit, 0] = frame.depth[hit]
-            pass_index = np.array([obj.pass_index for obj in frame.objects] + [0], np.float32)
-            planes["IndexOB"][:, 0] = pass_index[img.index]
-            planes[FIXED_PASS][:, 0] = img.fixed
-            self.update_stats("", f"DeformRT: {img.stats['rays']:,} rays, {int(img.fixed.sum()):,} pixels fixed")
-        for p in result.layers[0].passes:
-            if p.name in planes:
-                # Blender's rows run bottom-up; foreach_set copies in one go (assigning rect goes pixel
-                # by pixel: 0.25 s per 800x800 pass)
-                p.rect.foreach_set(np.ascontiguousarray(planes[p.name].reshape(h, w, -1)[::-1]).ravel())
-        self.end_result(result)
+            planes = {"Combined": np.column_stack([img.colour, np.ones(n)]),
+                      "Depth": np.where(hit, depth, BACKGROUND_DEPTH)[:, None],
+                      "IndexOB": pass_index[img.index][:, None], FIXED_PASS: img.fixed[:, None]}
+            # Blender's rows run bottom-up
+            result = self.begin_result(0, h - bottom, w, bottom - top)
+            for p in result.layers[0].passes:
+                if p.name in planes:
+                    # foreach_set copies in one go (assigning rect goes pixel by pixel: 0.25 s per
+                    # 800x800 pass)
+                    rect = planes[p.name].reshape(bottom - top, w, -1)[::-1].astype(np.float32)
+                    p.rect.foreach_set(np.ascontiguousarray(rect).ravel())
+            self.end_result(result)
+            rays, fixed = rays + img.stats["rays"], fixed + int(img.fixed.sum())
+            self.update_progress(bottom / h)
+            self.update_stats("", f"DeformRT: {rays:,} rays, {fixed:,} pixels fixed")
+            if self.test_break():
+                break
 
 
 def _panels():

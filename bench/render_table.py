@@ -68,11 +68,12 @@ def measure(name, size):
         key = "layered" if layered else "simple"
         row[f"{key}_s"] = statistics.median(walls)
         # the parts of a frame: reading the scene and building the ray scenes, tracing and shading
-        frame = engine.render_frame(bpy.context.evaluated_depsgraph_get(), size, size)
-        row[f"{key}_read_build_s"] = frame.seconds["read_build_s"]
-        row[f"{key}_trace_s"] = frame.seconds["trace_s"]
-        row[f"{key}_rays"] = frame.image.stats["rays"] + frame.image.stats["shadow_rays"]
-        row["fixed"] = float(frame.image.fixed.mean())
+        tracer = engine.FrameTracer(bpy.context.evaluated_depsgraph_get(), size, size)
+        img, _ = tracer.rows(0, size)
+        row[f"{key}_read_build_s"] = tracer.seconds["read_build_s"]
+        row[f"{key}_trace_s"] = tracer.seconds["trace_s"]
+        row[f"{key}_rays"] = img.stats["rays"] + img.stats["shadow_rays"]
+        row["fixed"] = float(img.fixed.mean())
         index[key] = studio.render_passes(scene, folder, ("IndexOB",))["IndexOB"]
         if key == "layered" and size >= 400:
             studio.render_passes(scene, folder, ("Image",))  # warm, then keep the picture
