@@ -266,6 +266,10 @@ class RayScene:
         return out
 
     def _map_chunks(self, fn, n):
+        if self._scene is not None and not self._scene.is_committed:
+            # embreex commits a new or moved scene on its first ray: do it here, on one thread,
+            # not in several chunks at once
+            self._scene.run(np.zeros((1, 3), np.float32), np.array([[0.0, 0.0, 1.0]], np.float32))
         return map_chunks(fn, n, _MIN_RAYS_PER_CHUNK, self.threads)
 
     def _trace_embree(self, o, d, tmax):
