@@ -187,6 +187,14 @@ def forget_correspondence():
     _correspondence_cache.clear()
 
 
+def kept_correspondence() -> dict:
+    return dict(_correspondence_cache)
+
+
+def keep_correspondence(cache: dict) -> None:
+    _correspondence_cache.update(cache)
+
+
 @dataclass
 class ResolveJob:
     """What a resolve read from the scene: core can run on it without touching bpy."""

@@ -275,8 +275,14 @@ class DEFORMRT_OT_bake_frames(_NeedsGarments, bpy.types.Operator):
         settings = scene.deformrt
         was_on, frame = settings.resolve_on_frame_change, scene.frame_current
         selection = [o for o in scene.objects if o.select_get()]
-        layer_resolve.forget_correspondence()
+        # the results shown now go first (switching the handler off clears them): Blender's
+        # Alembic exporter crashes on result objects made before it started. The correspondence
+        # playback found stays, so the cache holds what was shown; else the first frame baked
+        # finds one
+        kept = layer_resolve.kept_correspondence() if was_on else {}
+        settings.resolve_on_frame_change = False
         settings.resolve_on_frame_change = True
+        layer_resolve.keep_correspondence(kept)
         stopped, result = False, None
         try:
             # the exporter steps the frames; the frame handler resolves each before it is written
@@ -290,12 +296,19 @@ class DEFORMRT_OT_bake_frames(_NeedsGarments, bpy.types.Operator):
                                                apply_subdiv=True, as_background_job=False)
             stopped = not settings.resolve_on_frame_change
         finally:
-            settings.resolve_on_frame_change = was_on and not stopped
+            # back to the frame shown before with the handler off (changing frames with it on
+            # right after an Alembic export crashes Blender); it corrects again from the next
+            # frame change, with the same correspondence
+            kept = layer_resolve.kept_correspondence()
+            settings.resolve_on_frame_change = False
             for o in (body, *garments):
                 o.select_set(False)
             for o in selection:
                 o.select_set(True)
             scene.frame_set(frame)
+            if was_on and not stopped:
+                settings.resolve_on_frame_change = True
+                layer_resolve.keep_correspondence(kept)
         if result != {"FINISHED"} or stopped:
             self.report({"ERROR"}, "Bake stopped: " + (json.loads(settings.last_report or "{}").get("message", "")
                                                         if stopped else "the Alembic export failed"))

@@ -374,7 +374,7 @@ def test_panel_summary_names_skirts_far_points_and_inward_garments(extension):
 
 
 def test_falling_sheets_are_corrected_frame_by_frame_and_switching_off_gives_the_solver_back(extension,
-                                                                                              clean_scene):
+                                                                                              clean_scene, tmp_path):
     """Seed 4.5: Blender's cloth (sheet-sheet collision off) corrected live during playback."""
     sheets = sub(extension, "sample_scenes.sheets")
     made, (stage,) = sheets.build(layers=3, per_sheet=512, frames=24)
@@ -402,6 +402,20 @@ def test_falling_sheets_are_corrected_frame_by_frame_and_switching_off_gives_the
             shown = evaluated(o)[0]
             assert 0.5 * len(v) < len(shown) <= len(v)
             assert cKDTree(v).query(shown)[0].max() <= reach
+    live = [evaluated(o)[0] for o in made]  # frame 24, corrected
+    # baked while playback is corrected, the Alembic cache holds what was shown: Blender's importer
+    # gives back frame 24 as it was seen live, and its sheets do not cross
+    path = tmp_path / "sheets.abc"
+    assert bpy.ops.deformrt.bake_frames(frame_start=20, frame_end=24, filepath=str(path)) == {"FINISHED"}
+    before = set(scene.objects)
+    bpy.ops.wm.alembic_import(filepath=str(path))
+    imported = {o.name.split(".")[0]: o for o in set(scene.objects) - before if o.type == "MESH"}
+    scene.frame_set(23)
+    scene.frame_set(24)
+    cached = [imported[o.name.split(".")[0]] for o in made]
+    for o, v in zip(cached, live, strict=True):
+        np.testing.assert_allclose(evaluated(o)[0], v, atol=1e-5)
+    assert _garment_overlaps(cached) == 0
     scene.deformrt.resolve_on_frame_change = False
     assert not [m for o in made for m in o.modifiers if m.type == "NODES"]
     for f in (24, 12):
