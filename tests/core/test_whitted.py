@@ -179,6 +179,25 @@ def test_a_covered_lower_layer_casts_no_shadow_on_the_layer_over_it():
     np.testing.assert_allclose(img.colour, np.tile([0, 0, 1 / np.sqrt(1.01)], (len(o), 1)), rtol=1e-6)
 
 
+def test_a_lower_layer_poking_out_within_the_probe_distance_casts_no_shadow():
+    """A patch of the lower layer lies 5 mm over the outer sheet, its global normals sideways, so
+    its own probe misses the sheet and the camera sees it. Beside it the outer sheet is shown,
+    and a slanted sun's shadow ray from there meets the patch 7 mm away, within the 1 cm probe:
+    a poke-through, so the sheet is lit. Plain tracing shadows it."""
+    v, f = sheet(size=1.0, n=11, z=0.0)
+    pv, pf = sheet(size=0.2, n=5, z=0.005)
+    scene = LayeredScene([(pv, pf), (v, f)], [1, 2], probe_distance=0.01,
+                         global_normals=[np.tile([1.0, 0.0, 0.0], (len(pv), 1)), np.tile([0.0, 0.0, 1.0], (len(v), 1))])
+    o = np.column_stack([np.full(5, -0.103), np.linspace(-0.05, 0.05, 5), np.full(5, 1.0)])
+    d = np.tile([0.0, 0.0, -1.0], (5, 1))
+    sun = [Light("SUN", (-1.0, 0.0, -1.0), (1, 1, 1))]
+    mats = [Material(colour=(1, 0, 0)), Material(colour=(0, 0, 1))]
+    img = render(scene, mats, sun, o, d)
+    assert (img.index == 1).all()
+    np.testing.assert_allclose(img.colour, np.tile([0, 0, np.sqrt(0.5)], (5, 1)), rtol=1e-9)
+    np.testing.assert_array_equal(render(scene, mats, sun, o, d, layered=False).colour, 0.0)
+
+
 @pytest.mark.parametrize("bad, match", [
     (dict(materials=[]), "materials"),
     (dict(max_depth=-1), "max_depth"),
