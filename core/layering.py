@@ -27,7 +27,7 @@ from .correspondence import (
 from .metrics import crossing_edges, unique_edges
 from .rays import RayScene
 from .segmentation import get_scheme, hull_normals, is_skirt, skirt_segments
-from .topology import mean_edge_length, ring_distance, topology_of, vertex_adjacency
+from .topology import ring_distance, topology_of, vertex_adjacency
 
 
 @dataclass
@@ -243,7 +243,7 @@ def _border_segment(points, distance, primary, junctions, margin):
     return out
 
 
-def _spread_from_hits(vertices, faces, adjacency, hit_points, amplitude, seed_vertices, falloff=None):
+def _spread_from_hits(vertices, faces, topology, hit_points, amplitude, seed_vertices, falloff=None):
     """Per-vertex inward move near a higher layer's hem (Fig. 4.9-4.10).
 
     Each hit moves nearby vertices by amplitude * exp(-x^2 / 2c^2), x their distance from
@@ -252,7 +252,8 @@ def _spread_from_hits(vertices, faces, adjacency, hit_points, amplitude, seed_ve
     the hit point (not from the triangle's corners) make the result independent of which
     of two triangles sharing an edge the ray reported.
     """
-    edge = mean_edge_length(vertices, faces)
+    e = topology.edges
+    edge = float(np.linalg.norm(vertices[e[:, 0]] - vertices[e[:, 1]], axis=1).mean()) if len(e) else 0.0
     c = float(falloff) if falloff is not None else 4.0 * edge
     if c <= 0:
         out = np.zeros(len(vertices))
@@ -262,7 +263,7 @@ def _spread_from_hits(vertices, faces, adjacency, hit_points, amplitude, seed_ve
     lengths = np.linalg.norm(vertices[faces[:, 1]] - vertices[faces[:, 0]], axis=1)
     shortest = max(float(lengths[lengths > 0].min(initial=edge)), 1e-3 * edge, 1e-300)
     rings = int(min(256, np.ceil(reach / shortest) + 1))
-    near_patch = ring_distance(adjacency, np.unique(seed_vertices), rings) >= 0
+    near_patch = ring_distance(topology.adjacency, np.unique(seed_vertices), rings) >= 0
     candidates = np.flatnonzero(near_patch)
     out = np.zeros(len(vertices))
     # the "ndarray" form keeps pairs at distance 0 (a hit exactly on a vertex)
@@ -514,7 +515,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
             hit_points = [o[hit] + n_o[hit] * t[hit, None]]
             hit_amp = [t[hit] + d]
             seeds = [f[face[hit]].ravel()]
-            spread = _spread_from_hits(v, f, topo[k].adjacency, np.concatenate(hit_points), np.concatenate(hit_amp),
+            spread = _spread_from_hits(v, f, topo[k], np.concatenate(hit_points), np.concatenate(hit_amp),
                                        np.concatenate(seeds), params.get("falloff"))
             idx = np.flatnonzero(spread > 0)
             spread[idx] = body_floor(k, idx, spread[idx])

@@ -54,13 +54,6 @@ def ring_distance(adjacency: sparse.csr_matrix, seeds: np.ndarray, max_rings: in
     return dist
 
 
-def mean_edge_length(vertices: np.ndarray, faces: np.ndarray) -> float:
-    e, _ = edges_with_counts(faces)
-    if not len(e):
-        return 0.0
-    return float(np.linalg.norm(vertices[e[:, 0]] - vertices[e[:, 1]], axis=1).mean())
-
-
 class MeshTopology:
     """What a triangle list alone decides (edges, hem points, neighbours), for meshes whose
     faces stay while their vertices move: cloth and posed garments frame after frame."""
