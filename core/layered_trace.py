@@ -62,6 +62,10 @@ class LayeredScene:
                                  _stack_faces([self.faces[i] for i in ids], [len(self.vertices[i]) for i in ids]))
                 to_global = np.concatenate([self.first_face[i] + np.arange(len(self.faces[i])) for i in ids])
                 self._layer_scenes[layer] = (scene, to_global)
+        # per layer value (-1, a miss or an object outside the layering, last): is anything worn over it?
+        top = max([lay for lay in self.layers if lay is not None], default=-1)
+        self._has_cover = np.zeros(top + 2, bool)
+        self._has_cover[list(self._layer_scenes)] = True
 
     def split(self, face):
         """Global face ids -> (object, face within it)."""
@@ -148,9 +152,13 @@ class LayeredScene:
             obj, face = self.split(hits.face)
             hit = hits.face >= 0
             rejected = np.zeros(len(todo), bool)
-            if layered:
+            if layered and self._layer_scenes:
+                # hits on a layer something is worn over: one pass over the rays, then by layer
+                layer_of = self.object_layer[obj]
+                cand_all = np.flatnonzero(self._has_cover[layer_of])
+                by_layer = layer_of[cand_all]
                 for layer, (scene, to_global) in self._layer_scenes.items():
-                    cand = np.flatnonzero(hit & (self.object_layer[obj] == layer))
+                    cand = cand_all[by_layer == layer]
                     if not len(cand):
                         continue
                     p = o[todo[cand]] + d[todo[cand]] * hits.t[cand, None]
@@ -165,15 +173,15 @@ class LayeredScene:
                         again_hits = scene.intersect(back, d[todo[c]])
                         cover_t[todo[c]] = np.where(again_hits.hit, np.maximum(again_hits.t - self.eps, 0.0), np.inf)
                         cover_face[todo[c]] = np.where(again_hits.hit, to_global[np.maximum(again_hits.face, 0)], -1)
-            cover_t[todo[~rejected]] = np.inf
-            keep = hit & ~rejected
-            done = todo[keep | ~hit]
-            sel = keep[keep | ~hit]
-            t_here = np.where(hit, hits.t, np.inf)
-            result.t[done] = np.where(sel, t_total[done] + t_here[keep | ~hit], np.inf)
-            result.obj[done] = np.where(sel, obj[keep | ~hit], -1)
-            result.face[done] = np.where(sel, face[keep | ~hit], -1)
-            result.bary[done] = np.where(sel[:, None], hits.bary[keep | ~hit], 0.0)
+            # every ray not ignored is done: its hit, or nothing (rejected rays all hit)
+            shown = ~rejected
+            done = todo[shown]
+            cover_t[done] = np.inf
+            hit_s = hit[shown]
+            result.t[done] = np.where(hit_s, t_total[done] + hits.t[shown], np.inf)
+            result.obj[done] = obj[shown]
+            result.face[done] = face[shown]
+            result.bary[done] = np.where(hit_s[:, None], hits.bary[shown], 0.0)
             again = todo[rejected]
             result.fixed[again] = True
             result.skipped += len(again)
