@@ -104,21 +104,25 @@ class LayeredScene:
         ask = np.flatnonzero(out)
         o, d = np.asarray(origins, float)[ask], np.asarray(directions, float)[ask]
         dist = np.broadcast_to(np.asarray(max_dist, float), out.shape)[ask].copy()
-        if self._layer_scenes:
-            # nothing covers the outermost layer: a ray it stops needs no layered tracing
-            top, _ = self._layer_scenes[max(self._layer_scenes)]
-            by_top = top.occluded(o, d, max_dist=dist)
-            ask, o, d, dist = ask[~by_top], o[~by_top], d[~by_top], dist[~by_top]
         own = self.object_layer[np.full(len(out), -1) if leaving is None else np.asarray(leaving)][ask]
         travelled = np.zeros(len(ask))
         for _ in range(4):
-            vis = self.first_visible(o, d)
-            layer = self.object_layer[vis.obj]
-            poke = (vis.obj >= 0) & (layer >= 0) & (layer < own) & (travelled + vis.t <= self.probe)
-            out[ask[~poke]] = vis.t[~poke] < dist[~poke]
+            # the cheap test first: a plain first hit on a lower layer this close is a poke-through
+            hits = self.scene.intersect(o, d, max_dist=dist)
+            obj, _ = self.split(hits.face)
+            layer = self.object_layer[obj]
+            poke = hits.hit & (layer >= 0) & (layer < own) & (travelled + hits.t <= self.probe)
+            out[ask[~hits.hit]] = False
+            # a hit nothing is worn over (the outermost layer, props) blocks; one on a layer that
+            # could be covered is traced the layered way
+            rest = hits.hit & ~poke
+            out[ask[rest & ~self._has_cover[layer]]] = True
+            check = rest & self._has_cover[layer]
+            if check.any():
+                out[ask[check]] = self.first_visible(o[check], d[check]).t < dist[check]
             if not poke.any():
                 break
-            step = vis.t[poke] + self.eps
+            step = hits.t[poke] + self.eps
             ask, o, d, own = ask[poke], o[poke] + d[poke] * step[:, None], d[poke], own[poke]
             dist, travelled = dist[poke] - step, travelled[poke] + step
         else:
