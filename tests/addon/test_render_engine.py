@@ -123,13 +123,13 @@ def test_depth_object_index_and_fixed_passes(studio, clean_scene, tmp_path):
     bpy.ops.mesh.primitive_uv_sphere_add(radius=0.5, location=(0, 0, 0.5), segments=64, ring_count=32)
     ball = bpy.context.active_object
     ball.pass_index = 7
-    # 256 x 300 renders in two bands (256 rows, then 44): both must land where they belong
-    px = _render(studio, scene, tmp_path, size=(256, 300), passes=("Depth", "IndexOB", "DeformRT Fixed"))
+    # 1024 x 300 renders in two bands (256 rows, then 44): both must land where they belong
+    px = _render(studio, scene, tmp_path, size=(1024, 300), passes=("Depth", "IndexOB", "DeformRT Fixed"))
     on_floor = px["IndexOB"] == 3
-    assert on_floor.mean() > 0.8 and (px["IndexOB"] == 7).sum() > 20
+    assert on_floor.mean() > 0.6 and (px["IndexOB"] == 7).sum() > 20
     np.testing.assert_allclose(px["Depth"][on_floor], 5.0, rtol=1e-5)
     # the sphere's top (z = 1), straight below the camera: 4 m, in the middle of the image
-    assert abs(px["Depth"][149:151, 127:129].mean() - 4.0) < 0.01
+    assert abs(px["Depth"][149:151, 511:513].mean() - 4.0) < 0.01
     rows = np.flatnonzero((px["IndexOB"] == 7).any(1))
     assert abs(rows.mean() - 149.5) < 1.0
     assert set(np.unique(px["IndexOB"])) == {3.0, 7.0}
