@@ -18,7 +18,9 @@ import time
 
 import bpy
 import numpy as np
+from scipy.spatial import cKDTree
 
+from ..core.correspondence import local_radius
 from ..core.layered_trace import LayeredScene
 from ..core.whitted import Image, Light, Material, camera_rays, render
 from . import mesh_io
@@ -83,8 +85,22 @@ def scene_arrays(depsgraph):
         materials.append(_material(obj))
         sources.append(obj)
     settings = depsgraph.scene.deformrt
-    probe = settings.probe_distance if settings.probe_distance > 0 else 0.05
+    probe = settings.probe_distance if settings.probe_distance > 0 else _body_radius_probes(objects, layers)
     return LayeredScene(objects, layers, normals, probe_distance=probe, offset=settings.offset), materials, sources
+
+
+def _body_radius_probes(objects, layers):
+    """l_s per vertex as the resolve takes it when none is set: the body's radius (half its
+    thickness straight through) under each vertex of the body and the garments; 5 cm for
+    everything else, or for everything when there is no body."""
+    body = next((i for i, lay in enumerate(layers) if lay == 0), None)
+    if body is None:
+        return None
+    bv, bf = objects[body]
+    radius = local_radius(bv, bf)
+    tree = cKDTree(bv)
+    return [None if lay is None else radius[tree.query(v, workers=-1)[1]]
+            for (v, _), lay in zip(objects, layers, strict=True)]
 
 
 def _background(world):
@@ -189,7 +205,12 @@ class DEFORMRT_RE_layered(bpy.types.RenderEngine):
             self.end_result(self.begin_result(0, 0, w, h))
             return
         self.update_stats("", "DeformRT: reading the scene")
-        tracer = FrameTracer(depsgraph, w, h)
+        try:
+            tracer = FrameTracer(depsgraph, w, h)
+        except ValueError as exc:  # meshes or settings it cannot trace: say so, not a blank frame
+            self.report({"ERROR"}, f"DeformRT Layered: {exc}")
+            self.end_result(self.begin_result(0, 0, w, h))
+            return
         pass_index = np.array([obj.pass_index for obj in tracer.objects] + [0], np.float32)
         # bands of about 256k pixels: each shows as soon as it is done, Esc stops between them
         # (smaller bands cost the layered loop's few-ray rounds once per band: +20% at 64k)

@@ -27,13 +27,23 @@ class Visible:
 class LayeredScene:
     """Objects (vertices, faces) with a layer each (None: not layered, e.g. props; 0: the
     body; 1, 2, ...: garments inner to outer) and global normals per vertex (default: the
-    object's own vertex normals)."""
+    object's own vertex normals). ``probe_distance`` is l_s: one distance, or a list with one
+    entry per object, each a distance per vertex (the body part's radius under a garment
+    vertex, as the resolve takes it) or None for ``default_probe``."""
 
-    def __init__(self, objects, layers, global_normals=None, probe_distance=0.05, offset=0.0):
+    def __init__(self, objects, layers, global_normals=None, probe_distance=0.05, offset=0.0, default_probe=0.05):
         if len(objects) != len(layers):
             raise ValueError(f"{len(objects)} objects but {len(layers)} layers")
-        if not (np.isfinite(probe_distance) and probe_distance >= 0):
-            raise ValueError(f"probe_distance must be finite and >= 0, got {probe_distance}")
+        if not isinstance(probe_distance, (list, tuple)):
+            probe_distance = [probe_distance] * len(objects)
+        if len(probe_distance) != len(objects):
+            raise ValueError(f"probe_distance needs one entry per object ({len(objects)}), got {len(probe_distance)}")
+        probes = [np.full(len(np.asarray(v).reshape(-1, 3)), default_probe if p is None else p, float)
+                  if p is None or np.ndim(p) == 0 else np.asarray(p, float)
+                  for (v, _), p in zip(objects, probe_distance, strict=True)]
+        for (v, _), p in zip(objects, probes, strict=True):
+            if p.shape != (len(np.asarray(v).reshape(-1, 3)),) or not (np.isfinite(p) & (p >= 0)).all():
+                raise ValueError(f"probe distances must be finite and >= 0, one per vertex: got shape {p.shape}")
         self.vertices = [np.asarray(v, float).reshape(-1, 3) for v, _ in objects]
         self.faces = [np.asarray(f, np.int64).reshape(-1, 3) for _, f in objects]
         self.layers = list(layers)
@@ -44,7 +54,7 @@ class LayeredScene:
         for v, n in zip(self.vertices, self.normals, strict=True):
             if n.shape != v.shape:
                 raise ValueError(f"global normals must be one per vertex: {n.shape} for {v.shape}")
-        self.probe, self.offset = float(probe_distance), float(offset)
+        self.probes, self.offset = probes, float(offset)
         counts = np.array([len(f) for f in self.faces])
         self.first_face = np.concatenate([[0], np.cumsum(counts)])
         all_v = np.vstack(self.vertices) if self.vertices else np.zeros((0, 3))
@@ -78,14 +88,21 @@ class LayeredScene:
         return closest_point_on_triangles(points, v[:, 0], v[:, 1], v[:, 2])[:, 1:]
 
     def interpolate(self, per_vertex, obj, face, bary):
-        """Per-vertex vectors (one array per object) at hit points, blended by barycentrics."""
-        out = np.zeros((len(obj), 3))
+        """Per-vertex values (one array per object: a number or a vector per vertex) at hit
+        points, blended by barycentrics."""
+        tail = np.shape(per_vertex[0])[1:] if per_vertex else ()
+        out = np.zeros((len(obj), *tail))
         for i in np.unique(obj[obj >= 0]):
             sel = obj == i
             tri = per_vertex[i][self.faces[i][face[sel]]]
-            u, v = bary[sel, 0:1], bary[sel, 1:2]
+            shape = (-1, *([1] * len(tail)))
+            u, v = bary[sel, 0].reshape(shape), bary[sel, 1].reshape(shape)
             out[sel] = (1 - u - v) * tri[:, 0] + u * tri[:, 1] + v * tri[:, 2]
         return out
+
+    def probe_at(self, obj, face, bary):
+        """l_s at hit points, blended from the objects' per-vertex probe distances."""
+        return self.interpolate(self.probes, obj, face, bary)
 
     def global_normal(self, obj, face, bary):
         out = self.interpolate(self.normals, obj, face, bary)
@@ -111,7 +128,11 @@ class LayeredScene:
             hits = self.scene.intersect(o, d, max_dist=dist)
             obj, _ = self.split(hits.face)
             layer = self.object_layer[obj]
-            poke = hits.hit & (layer >= 0) & (layer < own) & (travelled + hits.t <= self.probe)
+            poke = hits.hit & (layer >= 0) & (layer < own)
+            if poke.any():
+                ids = np.flatnonzero(poke)
+                reach = self.probe_at(obj[ids], hits.face[ids] - self.first_face[obj[ids]], hits.bary[ids])
+                poke[ids] = travelled[ids] + hits.t[ids] <= reach
             out[ask[~hits.hit]] = False
             # a hit nothing is worn over (the outermost layer, props) blocks; one on a layer that
             # could be covered is traced the layered way
@@ -169,7 +190,8 @@ class LayeredScene:
                     g = self.global_normal(obj[cand], face[cand], hits.bary[cand])
                     # a probe from just outside: a higher layer at the same place is in front
                     start = p + g * self.offset
-                    covered = scene.occluded(start, -g, max_dist=self.probe + self.offset)
+                    reach = self.probe_at(obj[cand], face[cand], hits.bary[cand])
+                    covered = scene.occluded(start, -g, max_dist=reach + self.offset)
                     rejected[cand] = covered
                     if covered.any():
                         c = cand[covered]

@@ -170,3 +170,19 @@ def test_area_light_lights_one_side_as_blender_sizes_it(studio, clean_scene, tmp
     assert px[0, 0, 0] < px[7, 7, 0]
     light.rotation_euler = (np.pi, 0.0, 0.0)  # turned to face up: the floor is dark
     np.testing.assert_array_equal(_render(studio, scene, tmp_path, size=(15, 15))[..., :3], 0.0)
+
+
+def test_probe_distance_zero_takes_the_body_radius_under_each_vertex(extension):
+    """Probe Distance 0: l_s is the body's radius under each vertex, as in the resolve. For a
+    sphere that is its radius everywhere (half the chord through the centre)."""
+    import trimesh
+
+    engine = importlib.import_module(f"{extension.__name__}.addon.render_engine")
+    body = trimesh.creation.icosphere(subdivisions=4, radius=0.1)
+    shirt = trimesh.creation.icosphere(subdivisions=3, radius=0.12)
+    objects = [(body.vertices, body.faces), (shirt.vertices, shirt.faces), (shirt.vertices + 1.0, shirt.faces)]
+    probes = engine._body_radius_probes(objects, [0, 1, None])
+    np.testing.assert_allclose(probes[0], 0.1, rtol=0.01)
+    np.testing.assert_allclose(probes[1], 0.1, rtol=0.01)
+    assert probes[2] is None  # a prop: the default
+    assert engine._body_radius_probes(objects[1:], [1, None]) is None  # no body: the default everywhere

@@ -198,6 +198,25 @@ def test_a_lower_layer_poking_out_within_the_probe_distance_casts_no_shadow():
     np.testing.assert_array_equal(render(scene, mats, sun, o, d, layered=False).colour, 0.0)
 
 
+def test_probe_distance_per_vertex_follows_the_body_under_each_garment():
+    """A lower layer 3 cm out of the one worn over it is a poke-through for a 5 cm probe (a
+    torso) but not for a 1 cm one (a wrist, where 5 cm would reach the far side): the probe
+    distance can be given per vertex, blended at each hit."""
+    v, f = sheet(size=1.0, n=11, z=0.0)
+    up = np.tile([0.0, 0.0, 1.0], (len(v), 1))
+    objects = [(v + [0, 0, 0.03], f), (v, f)]
+    o, d = down_rays(n=5, spread=0.3)
+    torso = LayeredScene(objects, [1, 2], global_normals=[up, up], probe_distance=0.05)
+    assert (torso.first_visible(o, d).obj == 1).all()
+    ramp = 0.01 + 0.04 * (v[:, 0] > 0)  # 1 cm on the left half, 5 cm on the right
+    mixed = LayeredScene(objects, [1, 2], global_normals=[up, up], probe_distance=[ramp, None])
+    shown = mixed.first_visible(o, d).obj
+    left, right = o[:, 0] < -0.1, o[:, 0] > 0.1
+    assert (shown[left] == 0).all() and (shown[right] == 1).all()
+    with pytest.raises(ValueError, match="one per vertex"):
+        LayeredScene(objects, [1, 2], probe_distance=[ramp[:-1], None])
+
+
 @pytest.mark.parametrize("bad, match", [
     (dict(materials=[]), "materials"),
     (dict(max_depth=-1), "max_depth"),
