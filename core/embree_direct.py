@@ -60,16 +60,15 @@ def _load_library():
     return None
 
 
-def _find_scene_offset(scene_type) -> int | None:
-    """Byte offset of the RTCScene handle in an EmbreeScene: the pointer just before its
-    public ``is_committed`` int (the field order of embreex's rtcore_scene.pxd)."""
-    probe = scene_type.__new__(scene_type)
-    words = (ctypes.c_uint64 * (scene_type.__basicsize__ // 8)).from_address(id(probe))
-    probe.is_committed = 0x5A17C0DE
+def _find_scene_offset(scene) -> int | None:
+    """Byte offset of the RTCScene handle in an (empty, uncommitted) EmbreeScene: the pointer
+    just before its public ``is_committed`` int (the field order of embreex's rtcore_scene.pxd)."""
+    words = (ctypes.c_uint64 * (type(scene).__basicsize__ // 8)).from_address(id(scene))
+    scene.is_committed = 0x5A17C0DE
     hits = [i for i in range(len(words)) if words[i] & 0xFFFFFFFF == 0x5A17C0DE]
-    if len(hits) != 1 or hits[0] < 3:  # refcount, type, then at least the handle
+    scene.is_committed = 0
+    if len(hits) != 1 or hits[0] < 3 or not words[hits[0] - 1]:  # refcount, type, then the handle
         return None
-    probe.is_committed = 0
     return (hits[0] - 1) * 8
 
 
@@ -117,7 +116,7 @@ def available(new_scene) -> bool:
     try:
         _lib = _load_library()
         scene = new_scene()
-        _scene_offset = _find_scene_offset(type(scene)) if _lib is not None else None
+        _scene_offset = _find_scene_offset(scene) if _lib is not None else None
         if _scene_offset is None:
             return False
         tri = Triangles(scene, np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [5, 5, 5]], float),
