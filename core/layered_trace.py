@@ -38,23 +38,24 @@ class LayeredScene:
             probe_distance = [probe_distance] * len(objects)
         if len(probe_distance) != len(objects):
             raise ValueError(f"probe_distance needs one entry per object ({len(objects)}), got {len(probe_distance)}")
-        probes = [np.full(len(np.asarray(v).reshape(-1, 3)), default_probe if p is None else p, float)
-                  if p is None or np.ndim(p) == 0 else np.asarray(p, float)
-                  for (v, _), p in zip(objects, probe_distance, strict=True)]
-        for (v, _), p in zip(objects, probes, strict=True):
-            if p.shape != (len(np.asarray(v).reshape(-1, 3)),) or not (np.isfinite(p) & (p >= 0)).all():
-                raise ValueError(f"probe distances must be finite and >= 0, one per vertex: got shape {p.shape}")
         self.vertices = [np.asarray(v, float).reshape(-1, 3) for v, _ in objects]
+        self.probes = [np.full(len(v), default_probe if p is None else p, float) if p is None or np.ndim(p) == 0
+                       else np.asarray(p, float) for v, p in zip(self.vertices, probe_distance, strict=True)]
+        for v, p in zip(self.vertices, self.probes, strict=True):
+            if p.shape != (len(v),) or not (np.isfinite(p) & (p >= 0)).all():
+                raise ValueError(f"probe distances must be finite and >= 0, one per vertex: got shape {p.shape}")
         self.faces = [np.asarray(f, np.int64).reshape(-1, 3) for _, f in objects]
         self.layers = list(layers)
         self.shading_normals = [vertex_normals(v, f) for v, f in zip(self.vertices, self.faces, strict=True)]
+        # all objects' shading normals indexed as the combined scene's vertices
+        self.stacked_shading_normals = np.vstack(self.shading_normals) if self.shading_normals else np.zeros((0, 3))
         normals = global_normals or [None] * len(objects)
         self.normals = [own if n is None else np.asarray(n, float)
                         for own, n in zip(self.shading_normals, normals, strict=True)]
         for v, n in zip(self.vertices, self.normals, strict=True):
             if n.shape != v.shape:
                 raise ValueError(f"global normals must be one per vertex: {n.shape} for {v.shape}")
-        self.probes, self.offset = probes, float(offset)
+        self.offset = float(offset)
         counts = np.array([len(f) for f in self.faces])
         self.first_face = np.concatenate([[0], np.cumsum(counts)])
         all_v = np.vstack(self.vertices) if self.vertices else np.zeros((0, 3))
@@ -126,12 +127,12 @@ class LayeredScene:
         for _ in range(4):
             # the cheap test first: a plain first hit on a lower layer this close is a poke-through
             hits = self.scene.intersect(o, d, max_dist=dist)
-            obj, _ = self.split(hits.face)
+            obj, face = self.split(hits.face)
             layer = self.object_layer[obj]
             poke = hits.hit & (layer >= 0) & (layer < own)
             if poke.any():
                 ids = np.flatnonzero(poke)
-                reach = self.probe_at(obj[ids], hits.face[ids] - self.first_face[obj[ids]], hits.bary[ids])
+                reach = self.probe_at(obj[ids], face[ids], hits.bary[ids])
                 poke[ids] = travelled[ids] + hits.t[ids] <= reach
             out[ask[~hits.hit]] = False
             # a hit nothing is worn over (the outermost layer, props) blocks; one on a layer that

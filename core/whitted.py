@@ -172,7 +172,7 @@ def _shadow_origin(scene, obj, face, bary, p, side):
     glob = scene.first_face[obj] + face
     corners = scene.scene.faces[glob]
     v = scene.scene.vertices[corners]
-    n = np.vstack(scene.shading_normals)[corners] * side[:, None, None]
+    n = scene.stacked_shading_normals[corners] * side[:, None, None]
     w = np.column_stack([1 - bary[:, 0] - bary[:, 1], bary[:, 0], bary[:, 1]])
     rel = p[:, None, :] - v
     rel -= np.minimum(0.0, np.einsum("ijk,ijk->ij", rel, n))[..., None] * n
