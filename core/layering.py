@@ -24,7 +24,8 @@ from .correspondence import (
     nearest_on_surface,
     vertex_normals,
 )
-from .metrics import crossing_edges, unique_edges
+from .hidden_faces import crossing_faces
+from .metrics import unique_edges
 from .rays import RayScene
 from .segmentation import get_scheme, hull_normals, is_skirt, skirt_segments
 from .topology import ring_distance, topology_of, vertex_adjacency
@@ -554,37 +555,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     t0 = time.perf_counter()
     removed = [np.zeros(len(f), dtype=bool) for f in faces]
     if params.get("remove_hidden", True):
-        for k in range(n_g - 1):
-            v, f = verts[k], faces[k]
-            if not len(f):
-                continue
-            for j in range(k + 1, n_g):
-                if not len(faces[j]):
-                    continue
-                lo_k, hi_k = v.min(0), v.max(0)
-                lo_j, hi_j = verts[j].min(0), verts[j].max(0)
-                if (lo_k > hi_j).any() or (hi_k < lo_j).any():
-                    continue
-                scene_j = scenes[j].full()
-                e = edges[k]
-                cross = crossing_edges(v, f, scene_j, edges=e)
-                rays["hidden"] += len(e)
-                if cross.any():
-                    # a triangle goes when it owns a crossing edge
-                    key = e[cross, 0] * len(v) + e[cross, 1]
-                    fe = np.sort(np.stack([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]], 1), axis=2)
-                    removed[k] |= np.isin(fe[..., 0] * len(v) + fe[..., 1], key).any(1)
-                # and where a higher layer's edge pierces one of this layer's triangles
-                scene_k = scenes[k].full()
-                ej = edges[j]
-                if len(ej):
-                    start = verts[j][ej[:, 0]]
-                    vec = verts[j][ej[:, 1]] - start
-                    length = np.linalg.norm(vec, axis=1)
-                    ok = length > 0
-                    hits = scene_k.intersect(start[ok], vec[ok], max_dist=length[ok])
-                    rays["hidden"] += int(ok.sum())
-                    removed[k][hits.face[hits.hit]] = True
+        removed, rays["hidden"] = crossing_faces(verts, faces, edges)
     timings["hidden_faces_s"] = time.perf_counter() - t0
 
     out, moved = [], []

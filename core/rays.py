@@ -154,7 +154,9 @@ class RayScene:
         if in_place:
             self._mesh.move(v - self._center)
             return
-        self._used = np.unique(f) if len(f) else np.zeros(0, np.int64)
+        used = np.zeros(len(v), dtype=bool)  # a mask, not a sort: builds come often
+        used[f.ravel()] = True
+        self._used = np.flatnonzero(used)
         # Re-centre before float32 so precision follows the scene's size, not its distance from 0.
         self._center = 0.5 * (v[self._used].min(0) + v[self._used].max(0)) if len(f) else np.zeros(3)
         self._scene = None
