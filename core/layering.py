@@ -25,7 +25,6 @@ from .correspondence import (
     vertex_normals,
 )
 from .hidden_faces import crossing_faces
-from .metrics import unique_edges
 from .rays import RayScene
 from .segmentation import get_scheme, hull_normals, is_skirt, skirt_segments
 from .topology import ring_distance, topology_of, vertex_adjacency
@@ -73,7 +72,7 @@ class _SegmentScenes:
         self._scenes = {}
         self._ids = {}
         self._bounds = {}
-        self._face_centre = None
+        self._face_box = None
         self.built = 0
 
     def full(self):
@@ -101,16 +100,38 @@ class _SegmentScenes:
                 self.built += 1
         return self._scenes[segment]
 
+    def _face_boxes(self):
+        if self._face_box is None:
+            # corner by corner: a reduction over an axis of length 3 is several times slower
+            a, b, c = (self.vertices[self.faces[:, i]] for i in range(3))
+            self._face_box = (np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c))
+        return self._face_box
+
     def get_near(self, segment, points, reach):
-        """A scene over only the segment's triangles within ``reach`` of some point, when that
-        is under half of them (built for one use); else the segment's cached scene."""
+        """A scene over only the segment's triangles within about ``reach`` of some point (at
+        least those: a voxel grid of that size decides), when that is under half of them
+        (built for one use); else the segment's cached scene."""
         ids = self.ids(segment)
-        if self._face_centre is None:
-            tri = self.vertices[self.faces]
-            self._face_centre = tri.mean(1)
-            self._face_radius = float(np.linalg.norm(tri - self._face_centre[:, None], axis=2).max(initial=0.0))
-        dist, _ = cKDTree(points).query(self._face_centre[ids], distance_upper_bound=reach + self._face_radius)
-        keep = np.isfinite(dist)
+        lo, hi = self._face_boxes()
+        lo, hi = lo[ids], hi[ids]
+        centre = 0.5 * (lo + hi)
+        cell = reach + 0.5 * float(np.linalg.norm(hi - lo, axis=1).max(initial=0.0))
+        keep = np.zeros(len(ids), dtype=bool)
+        if cell > 0 and len(ids) and len(points):
+            base = points.min(0) - 2 * cell  # every cell index of interest is >= 1
+            size = np.floor((np.maximum(points.max(0), centre.max(0)) - base) / cell).astype(np.int64) + 3
+            # beyond int64 key range (a reach tiny against the layer) the voxels would alias
+            if float(np.prod(size.astype(float))) < 2.0**62:
+                def key(q):
+                    return (q[:, 0] * size[1] + q[:, 1]) * size[2] + q[:, 2]
+
+                cells = np.floor((points - base) / cell).astype(np.int64)
+                steps = np.stack(np.meshgrid(*[[-1, 0, 1]] * 3, indexing="ij"), -1).reshape(-1, 3)
+                near = np.unique(key((cells[:, None] + steps).reshape(-1, 3)))
+                q = np.clip(np.floor((centre - base) / cell).astype(np.int64), 0, size - 1)
+                keep = np.isin(key(q), near)
+            else:
+                keep[:] = True
         if not keep.any():
             return None
         if keep.sum() * 2 > len(ids) or segment in self._scenes:
@@ -121,9 +142,13 @@ class _SegmentScenes:
     def bounds_overlap(self, segment, lo, hi):
         if segment not in self._bounds:
             ids = self.ids(segment)
-            # all of the layer: its vertices' box (at least the faces', never smaller)
-            pts = self.vertices if len(ids) == len(self.faces) else self.vertices[self.faces[ids]].reshape(-1, 3)
-            self._bounds[segment] = (pts.min(0), pts.max(0)) if len(pts) and len(ids) else None
+            if not len(ids):
+                self._bounds[segment] = None
+            elif len(ids) == len(self.faces):  # all of the layer: its vertices' box, never smaller
+                self._bounds[segment] = (self.vertices.min(0), self.vertices.max(0))
+            else:
+                f_lo, f_hi = self._face_boxes()
+                self._bounds[segment] = (f_lo[ids].min(0), f_hi[ids].max(0))
         box = self._bounds[segment]
         return box is not None and bool((box[0] <= hi).all() and (box[1] >= lo).all())
 
@@ -191,7 +216,7 @@ def _part_junctions(vertices, faces, segment):
     """Body vertices where two parts meet: an edge to a vertex of another part (one surface),
     or within half an edge of another part's surface (parts modelled apart that overlap at
     the joints). Returns (positions, own part, other part)."""
-    e = unique_edges(faces)
+    e = topology_of(faces, len(vertices)).edges  # the body's, kept for the next call
     cross = segment[e[:, 0]] != segment[e[:, 1]]
     at = [e[cross, 0], e[cross, 1]]
     other = [segment[e[cross, 1]], segment[e[cross, 0]]]
@@ -200,7 +225,8 @@ def _part_junctions(vertices, faces, segment):
     # another part's surface that close has a vertex among a vertex's nearest neighbours
     # within an edge: test the triangles around those neighbours
     k = min(16, len(vertices))
-    d, j = cKDTree(vertices).query(vertices, k=k, distance_upper_bound=float(lengths.max(initial=0.0)) + reach)
+    d, j = cKDTree(vertices).query(vertices, k=k, distance_upper_bound=float(lengths.max(initial=0.0)) + reach,
+                                   workers=-1)
     found = np.isfinite(d) & (segment[np.where(np.isfinite(d), j, 0)] != segment[:, None])
     row = np.flatnonzero(found.any(1))
     col = np.argmax(found[row], axis=1)  # the nearest neighbour of another part

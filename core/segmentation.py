@@ -13,12 +13,11 @@ import re
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import ConvexHull, QhullError, cKDTree
 
 from .correspondence import closest_point_on_triangles
 from .parallel import map_chunks
-from .topology import edges_with_counts
+from .topology import topology_of
 
 
 @dataclass(frozen=True)
@@ -149,16 +148,7 @@ def segments_from_groups(weights, group_names, scheme="S5", vertices=None) -> np
 
 def boundary_loops(faces: np.ndarray, n_vertices: int) -> list:
     """Vertex ids of each connected set of boundary edges (a hem, cuff or neckline)."""
-    e, count = edges_with_counts(faces)
-    b = e[count == 1]
-    if not len(b):
-        return []
-    from scipy import sparse
-
-    adj = sparse.coo_matrix((np.ones(len(b)), (b[:, 0], b[:, 1])), shape=(n_vertices, n_vertices))
-    _, label = connected_components(adj, directed=False)
-    on = np.unique(b.ravel())
-    return [on[label[on] == lab] for lab in np.unique(label[on])]
+    return topology_of(faces, n_vertices).hem_loops
 
 
 def is_skirt(faces, vertex_segment, scheme="S5", min_share=0.1, vertices=None, body_vertices=None,

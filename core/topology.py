@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 from scipy import sparse
+from scipy.sparse import csgraph
 
 
 def edges_with_counts(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -29,9 +30,9 @@ def boundary_vertices(faces: np.ndarray, n_vertices: int) -> np.ndarray:
     return mask
 
 
-def vertex_adjacency(faces: np.ndarray, n_vertices: int) -> sparse.csr_matrix:
-    """Symmetric vertex-vertex adjacency (CSR, boolean)."""
-    e, _ = edges_with_counts(faces)
+def vertex_adjacency(faces: np.ndarray, n_vertices: int, edges=None) -> sparse.csr_matrix:
+    """Symmetric vertex-vertex adjacency (CSR, boolean); ``edges`` if already found."""
+    e = edges_with_counts(faces)[0] if edges is None else edges
     data = np.ones(2 * len(e), dtype=bool)
     rows = np.concatenate([e[:, 0], e[:, 1]])
     cols = np.concatenate([e[:, 1], e[:, 0]])
@@ -61,16 +62,31 @@ class MeshTopology:
     def __init__(self, faces: np.ndarray, n_vertices: int):
         self.faces, self.n_vertices = faces, n_vertices
         self.edges, counts = edges_with_counts(faces)
+        self.hem_edges = self.edges[counts == 1]
         hem = np.zeros(n_vertices, dtype=bool)
-        hem[self.edges[counts == 1].ravel()] = True
+        hem[self.hem_edges.ravel()] = True
         self.hem_vertices = np.flatnonzero(hem)
         self._adjacency = None
+        self._hem_loops = None
 
     @property
     def adjacency(self) -> sparse.csr_matrix:
         if self._adjacency is None:
-            self._adjacency = vertex_adjacency(self.faces, self.n_vertices)
+            self._adjacency = vertex_adjacency(self.faces, self.n_vertices, self.edges)
         return self._adjacency
+
+    @property
+    def hem_loops(self) -> list:
+        """Vertex ids of each connected set of boundary edges (a hem, cuff or neckline)."""
+        if self._hem_loops is None:
+            b = self.hem_edges
+            self._hem_loops = []
+            if len(b):
+                adj = sparse.coo_matrix((np.ones(len(b)), (b[:, 0], b[:, 1])), shape=(self.n_vertices,) * 2)
+                _, label = csgraph.connected_components(adj, directed=False)
+                on = self.hem_vertices
+                self._hem_loops = [on[label[on] == lab] for lab in np.unique(label[on])]
+        return self._hem_loops
 
 
 _topologies: dict = {}
