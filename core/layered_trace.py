@@ -48,7 +48,7 @@ class LayeredScene:
         self.layers = list(layers)
         self.shading_normals = [vertex_normals(v, f) for v, f in zip(self.vertices, self.faces, strict=True)]
         # all objects' shading normals indexed as the combined scene's vertices
-        self.stacked_shading_normals = np.vstack(self.shading_normals) if self.shading_normals else np.zeros((0, 3))
+        self.stacked_shading_normals = self.stack(self.shading_normals)
         normals = global_normals or [None] * len(objects)
         self.normals = [own if n is None else np.asarray(n, float)
                         for own, n in zip(self.shading_normals, normals, strict=True)]
@@ -56,6 +56,7 @@ class LayeredScene:
             if n.shape != v.shape:
                 raise ValueError(f"global normals must be one per vertex: {n.shape} for {v.shape}")
         self.offset = float(offset)
+        self._stacked_probes, self._stacked_normals = self.stack(self.probes), self.stack(self.normals)
         counts = np.array([len(f) for f in self.faces])
         self.first_face = np.concatenate([[0], np.cumsum(counts)])
         all_v = np.vstack(self.vertices) if self.vertices else np.zeros((0, 3))
@@ -66,6 +67,7 @@ class LayeredScene:
         self.eps = 1e-5 * max(self.size, 1e-12)  # above float32 round-off in Embree
         self.object_layer = np.array([-1 if lay is None else lay for lay in self.layers] + [-1])
         self._layer_scenes = {}
+        self._cover_box = {}  # per layer: the box of what is worn over it, and how far its probes reach
         for layer in sorted({lay for lay in self.layers if lay is not None}):
             ids = [i for i, lay in enumerate(self.layers) if lay is not None and lay > layer]
             if ids:
@@ -73,6 +75,11 @@ class LayeredScene:
                                  _stack_faces([self.faces[i] for i in ids], [len(self.vertices[i]) for i in ids]))
                 to_global = np.concatenate([self.first_face[i] + np.arange(len(self.faces[i])) for i in ids])
                 self._layer_scenes[layer] = (scene, to_global)
+                box = np.vstack([scene.vertices.min(0), scene.vertices.max(0)])
+                # the farthest a probe from this layer reaches
+                reach = max((float(self.probes[i].max(initial=0.0)) for i, lay in enumerate(self.layers)
+                             if lay == layer), default=0.0) + abs(self.offset)
+                self._cover_box[layer] = (box, reach)
         # per layer value (-1, a miss or an object outside the layering, last): is anything worn over it?
         top = max([lay for lay in self.layers if lay is not None], default=-1)
         self._has_cover = np.zeros(top + 2, bool)
@@ -88,25 +95,29 @@ class LayeredScene:
         v = self.scene.vertices[self.scene.faces[global_face]]
         return closest_point_on_triangles(points, v[:, 0], v[:, 1], v[:, 2])[:, 1:]
 
-    def interpolate(self, per_vertex, obj, face, bary):
-        """Per-vertex values (one array per object: a number or a vector per vertex) at hit
-        points, blended by barycentrics."""
-        tail = np.shape(per_vertex[0])[1:] if per_vertex else ()
-        out = np.zeros((len(obj), *tail))
-        for i in np.unique(obj[obj >= 0]):
-            sel = obj == i
-            tri = per_vertex[i][self.faces[i][face[sel]]]
-            shape = (-1, *([1] * len(tail)))
-            u, v = bary[sel, 0].reshape(shape), bary[sel, 1].reshape(shape)
-            out[sel] = (1 - u - v) * tri[:, 0] + u * tri[:, 1] + v * tri[:, 2]
+    def stack(self, per_vertex):
+        """One array per object (a number or a vector per vertex) -> one array indexed as the
+        combined scene's vertices, for ``interpolate``."""
+        return np.concatenate(per_vertex) if per_vertex else np.zeros(0)
+
+    def interpolate(self, stacked, obj, face, bary):
+        """Per-vertex values (``stack``ed) at hit points, blended by barycentrics; 0 on misses.
+        One gather over all objects at once: grouping the hits by object costs a sort."""
+        hit = obj >= 0
+        corner = self.scene.faces[np.where(hit, self.first_face[np.maximum(obj, 0)] + face, 0)]
+        tri = stacked[corner] if len(stacked) else np.zeros((len(obj), 3, *np.shape(stacked)[1:]))
+        shape = (-1, *([1] * (tri.ndim - 2)))
+        u, v = bary[:, 0].reshape(shape), bary[:, 1].reshape(shape)
+        out = (1 - u - v) * tri[:, 0] + u * tri[:, 1] + v * tri[:, 2]
+        out[~hit] = 0.0
         return out
 
     def probe_at(self, obj, face, bary):
         """l_s at hit points, blended from the objects' per-vertex probe distances."""
-        return self.interpolate(self.probes, obj, face, bary)
+        return self.interpolate(self._stacked_probes, obj, face, bary)
 
     def global_normal(self, obj, face, bary):
-        out = self.interpolate(self.normals, obj, face, bary)
+        out = self.interpolate(self._stacked_normals, obj, face, bary)
         length = np.linalg.norm(out, axis=1, keepdims=True)
         return np.divide(out, length, out=np.zeros_like(out), where=length > 0)
 
@@ -188,6 +199,13 @@ class LayeredScene:
                     if not len(cand):
                         continue
                     p = o[todo[cand]] + d[todo[cand]] * hits.t[cand, None]
+                    # a probe cannot reach what is worn over the layer from farther than its reach
+                    box, most = self._cover_box[layer]
+                    near = _box_distance(p, box) <= most
+                    if not near.all():
+                        cand, p = cand[near], p[near]
+                        if not len(cand):
+                            continue
                     g = self.global_normal(obj[cand], face[cand], hits.bary[cand])
                     # a probe from just outside: a higher layer at the same place is in front
                     start = p + g * self.offset
@@ -218,6 +236,12 @@ class LayeredScene:
             min_dist[again] = self.eps
             todo = again
         return result
+
+
+def _box_distance(points, box):
+    """Distance from each point to an axis-aligned box (0 inside); column by column."""
+    gap = [np.maximum(np.maximum(box[0, k] - points[:, k], points[:, k] - box[1, k]), 0.0) for k in range(3)]
+    return np.sqrt(gap[0] ** 2 + gap[1] ** 2 + gap[2] ** 2)
 
 
 def _stack_faces(faces, counts):

@@ -156,7 +156,7 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
 def _shading_normal(scene, obj, face, bary):
     """The object's interpolated vertex normals (smooth shading); the face's own where they
     cancel out."""
-    out = scene.interpolate(scene.shading_normals, obj, face, bary)
+    out = scene.interpolate(scene.stacked_shading_normals, obj, face, bary)
     bad = np.flatnonzero(np.linalg.norm(out, axis=1) < 1e-12)
     if len(bad):
         glob = scene.first_face[obj[bad]] + face[bad]
