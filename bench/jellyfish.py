@@ -1,5 +1,6 @@
 """The seed's Table 3.1 done properly: path per cycle and seconds of the default creature
-against substeps and particle resolution, each with its error against the finest run; and
+against substeps, particle resolution and the Courant number that sets the inner time step,
+each with its error against the finest run; and
 the vorticity through one cycle (the seed's Fig. 3.3) as a PNG.
 
     .venv/bin/python -m bench.jellyfish     # writes its section of docs/REPORT.md (~1 min)
@@ -18,6 +19,7 @@ from core.jellyfish import default_config, default_creature, simulate_cycle
 IMG = Path(__file__).resolve().parent.parent / "docs" / "img"
 SUBSTEPS = (6, 10, 14, 20, 40)
 PARTICLES = (50, 75, 100, 150, 200)
+COURANT = (2.0, 1.0, 0.5, 0.25, 0.125)
 
 
 def run(**changes):
@@ -72,7 +74,8 @@ def main():
     head = ["", "seconds", "path mm", "path / diameter", "error vs finest", "inner steps"]
     by_steps = sweep("substeps", SUBSTEPS, {"particles": 100})
     by_res = sweep("particles", PARTICLES, {"substeps": 14})
-    for r in by_steps + by_res:
+    by_cfl = sweep("cfl", COURANT, {"particles": 100, "substeps": 14})
+    for r in by_steps + by_res + by_cfl:
         print(r, flush=True)
     vorticity_sheet()
     text = "\n".join([
@@ -83,6 +86,8 @@ def main():
         table(["substeps", *head[1:]], by_steps), "",
         "### Against particles per side (14 substeps)", "",
         table(["particles", *head[1:]], by_res), "",
+        "### Against the Courant number of the inner steps (100 x 100 particles, 14 substeps; 1 is the default)",
+        "", table(["Courant number", *head[1:]], by_cfl), "",
         "![vorticity through one cycle](img/jellyfish_vorticity.png)", "",
         "Vorticity through one cycle (8 frames, left to right; red clockwise, blue anticlockwise, the bell "
         "black), 100 x 100 particles.",
