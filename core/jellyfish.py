@@ -32,6 +32,7 @@ class JellyfishConfig:
     weights: tuple = (0.4, 0.3, 0.3)  # w_d, w_b, w_e of eq. 3.14
     min_thickness_cells: float = 1.5
     cfl: float = 1.0
+    forcing_iterations: int = 1  # velocity imposed and projected this many times per inner step
 
     def __post_init__(self):
         if self.substeps < 1:
@@ -192,7 +193,8 @@ def simulate_cycle(creature: Creature, config: JellyfishConfig | None = None, sa
     if reason is not None:
         return CycleResult(np.nan, energy_b, np.nan, -np.inf, reason, {"total_s": time.perf_counter() - t0})
     fluid = LatticeFluid(Box(config.box, config.box, periodic=(True, True)), nx=config.particles,
-                         viscosity=config.viscosity, density=config.density, cfl=config.cfl)
+                         viscosity=config.viscosity, density=config.density, cfl=config.cfl,
+                         forcing_iterations=config.forcing_iterations)
     forcing = _BellForcing(fluid, config, bell_map, creature.contraction)
     forcing.mask = forcing.covered(forcing.outline(0.0))
     dt = config.period / config.substeps
