@@ -8,7 +8,7 @@ operators then see ``values`` for real and ghost particles alike and return rows
 first ``n_rows`` particles.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
@@ -35,6 +35,7 @@ class Neighbours:
     w: np.ndarray  # w(|r_ij|, re_i)
     n_rows: int
     n_points: int
+    _grad: list | None = field(default=None, repr=False, compare=False)  # gradient matrices, made on first use
 
     @classmethod
     def build(cls, points, re, n_rows=None, box=None, blocked=None):
@@ -78,18 +79,30 @@ class Neighbours:
         swr = np.bincount(self.i, weights=self.w * self.dist**2, minlength=self.n_rows)
         return np.divide(swr, sw, out=np.zeros_like(sw), where=sw > 0)
 
+    def _gradient_matrices(self):
+        """Per axis k, the sparse (n_rows, n_points) matrix of sum_j (phi_j - phi_i) r_ij,k w / |r_ij|^2:
+        made once, as the operators are applied every step."""
+        if self._grad is None:
+            c = self.w / self.dist**2
+            self._grad = []
+            for k in range(self.r.shape[1]):
+                v = c * self.r[:, k]
+                off = sp.csr_matrix((v, (self.i, self.j)), shape=(self.n_rows, self.n_points))
+                diag = sp.csr_matrix((-np.bincount(self.i, weights=v, minlength=self.n_rows),
+                                      (np.arange(self.n_rows), np.arange(self.n_rows))),
+                                     shape=(self.n_rows, self.n_points))
+                self._grad.append((off + diag).tocsr())
+        return self._grad
+
     def gradient(self, phi, n0, dim=2):
         """Eq. 3.4: (d/n0) sum (phi_j - phi_i) r_ij w / |r_ij|^2."""
         phi = np.asarray(phi, float)
-        f = (phi[self.j] - phi[self.i]) * self.w / self.dist**2
-        return dim / n0 * np.column_stack([np.bincount(self.i, weights=f * self.r[:, k], minlength=self.n_rows)
-                                           for k in range(self.r.shape[1])])
+        return dim / n0 * np.column_stack([g @ phi for g in self._gradient_matrices()])
 
     def divergence(self, u, n0, dim=2):
         """Eq. 3.7: (d/n0) sum (u_j - u_i) . r_ij w / |r_ij|^2."""
         u = np.asarray(u, float)
-        f = np.einsum("pk,pk->p", u[self.j] - u[self.i], self.r) * self.w / self.dist**2
-        return dim / n0 * np.bincount(self.i, weights=f, minlength=self.n_rows)
+        return dim / n0 * sum(g @ u[:, k] for k, g in enumerate(self._gradient_matrices()))
 
     def laplacian(self, phi, n0, lam, dim=2):
         """Eq. 3.5: (2d / (lam n0)) sum (phi_j - phi_i) w; phi may be (n,) or (n, m)."""
