@@ -40,9 +40,10 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Area-weighted unit vertex normals (zero for vertices of zero-area triangles only)."""
     tri = vertices[faces]
     cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    out = np.zeros_like(vertices)
-    for k in range(3):
-        np.add.at(out, faces[:, k], cross)
+    # bincount per axis: several times faster than np.add.at
+    idx = np.asarray(faces).T.ravel()
+    out = np.column_stack([np.bincount(idx, weights=np.tile(cross[:, k], 3), minlength=len(vertices))
+                           for k in range(3)]) if len(vertices) else np.zeros((0, 3))
     return _unit(out)
 
 
