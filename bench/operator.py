@@ -71,7 +71,7 @@ def main():
         "",
         "Renders: `python . demo` (Fig. 4.12) and `python . demo --scene fig_4_13`, Cycles 16 spp, before and after "
         f"the operator. Target (issue 5): < 1.5 s end to end on Fig. 4.12: {rows[0][5]} s, "
-        f"{'met, by a thin margin' if float(rows[0][5]) < 1.5 else 'not met'}; the resolve is most of it (the stage "
+        f"{'met' if float(rows[0][5]) < 1.5 else 'not met'}; the resolve is most of it (the stage "
         "table above: the nearest-surface search and the hidden-face pass lead).",
     ])
     write_section("operator", "Layered garments in Blender: deformrt.resolve_layers end to end", text)
