@@ -102,7 +102,7 @@ def _as_rays(origins, directions) -> tuple[np.ndarray, np.ndarray]:
     d = _as_points("directions", directions)
     if d.shape != o.shape:
         raise ValueError(f"origins {o.shape} and directions {d.shape} must have the same shape")
-    length = np.linalg.norm(d, axis=1)
+    length = np.sqrt(np.einsum("ij,ij->i", d, d))  # faster than linalg.norm along rows
     if len(length) and not (length > 0).all():
         raise ValueError(f"directions has {(length <= 0).sum()} zero-length vectors")
     return o, d / length[:, None] if len(d) else d
@@ -151,6 +151,7 @@ class RayScene:
         self.vertices = v
         self.faces = f
         self._face_normals = None
+        self._planes = None
         if in_place:
             self._mesh.move(v - self._center)
             return
@@ -194,11 +195,9 @@ class RayScene:
         return self._face_normals
 
     def normals_of(self, face) -> np.ndarray:
-        tri = self.vertices[self.faces[face]]
-        cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-        norm = np.linalg.norm(cross, axis=1)
+        n, _, ln = self._plane_of(face)
         with np.errstate(invalid="ignore", divide="ignore"):
-            return np.where(norm[:, None] > 0, cross / norm[:, None], 0.0)
+            return np.where(ln[:, None] > 0, n / ln[:, None], 0.0)
 
     @property
     def backend(self) -> str:
@@ -253,18 +252,20 @@ class RayScene:
         active = tmax >= tmin
         if not len(self.faces) or not active.any():
             return out
-        idx = np.flatnonzero(active)
+        # every ray from its own origin (the common case): no gathers, no shifted origins
+        idx = slice(None) if active.all() else np.flatnonzero(active)
         if self._scene is None:
             out[idx] = self._fallback(o[idx], d[idx], tmin[idx], tmax[idx])[1] >= 0
             return out
-        org = (o[idx] + d[idx] * tmin[idx, None] - self._center).astype(np.float32)
+        start = o[idx] if min_dist is None else o[idx] + d[idx] * tmin[idx, None]
+        org = (start - self._center).astype(np.float32)
         dirs = d[idx].astype(np.float32)
         dist = _float32_dist(tmax[idx] - tmin[idx])
 
         def run(sl):
             return self._scene.run(org[sl], dirs[sl], dists=dist[sl].copy(), query="OCCLUDED")
 
-        out[idx] = np.concatenate(self._map_chunks(run, len(idx))) >= 0
+        out[idx] = np.concatenate(self._map_chunks(run, len(org))) >= 0
         return out
 
     def _map_chunks(self, fn, n):
@@ -288,23 +289,51 @@ class RayScene:
             r = self._scene.run(org, np.ascontiguousarray(dd, dtype=np.float32), dists=_float32_dist(hi), output=1)
             face = r["primID"].astype(np.int64)
             hit = face >= 0
+            idx = np.flatnonzero(hit)  # integer takes: boolean indexing of (n, 3) rows is slower
             t = np.full(len(face), np.inf)
-            t[hit] = self._refine_t(oo[hit], dd[hit], face[hit], r["tfar"][hit].astype(np.float64), hi[hit])
+            t[idx] = self._refine_t(oo[idx], dd[idx], face[idx], r["tfar"][idx].astype(np.float64), hi[idx])
             tf[sl], ff[sl] = t, face
             uv[sl, 0] = np.where(hit, r["u"], 0.0)
             uv[sl, 1] = np.where(hit, r["v"], 0.0)
 
+        if n * 4 >= len(self.faces):
+            self._plane_of()  # all faces, once, here rather than in every worker at the same time
         self._map_chunks(run, n)
         return tf, ff, uv
 
+    def _plane_of(self, face=None):
+        """Per face (all, or just ``face``), the unnormalised normal, its dot with the first
+        corner and its length. All faces are done once per scene and kept, so a hit's float64
+        distance is a gather and a few products; a few hits on a big scene do only their own."""
+        asked = len(self.faces) if face is None or isinstance(face, slice) else len(face)
+        if self._planes is None and asked * 4 < len(self.faces):
+            return self._planes_for(self.faces[face])
+        if self._planes is None:
+            self._planes = self._planes_for(self.faces)
+        if face is None:
+            return self._planes
+        return tuple(x[face] for x in self._planes)
+
+    def _planes_for(self, corners):
+        v = self.vertices
+        a = v[corners[:, 0]]
+        e1, e2 = v[corners[:, 1]] - a, v[corners[:, 2]] - a
+        n = np.empty_like(a)
+        # column by column: np.cross on (m, 3) is several times slower
+        n[:, 0] = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
+        n[:, 1] = e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]
+        n[:, 2] = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+        dot = n[:, 0] * a[:, 0] + n[:, 1] * a[:, 1] + n[:, 2] * a[:, 2]
+        return n, dot, np.sqrt(n[:, 0] ** 2 + n[:, 1] ** 2 + n[:, 2] ** 2)
+
     def _refine_t(self, o, d, face, t32, tmax):
         """Float64 distance to the hit triangle's plane, kept inside [0, tmax]."""
-        n = self.normals_of(face)
-        denom = np.einsum("ij,ij->i", d, n)
+        n, offset, length = self._plane_of(face)
+        denom = n[:, 0] * d[:, 0] + n[:, 1] * d[:, 1] + n[:, 2] * d[:, 2]
         with np.errstate(divide="ignore", invalid="ignore"):
-            t = np.einsum("ij,ij->i", self.vertices[self.faces[face, 0]] - o, n) / denom
-        # Grazing rays: the plane solve is ill-conditioned; keep Embree's distance.
-        bad = ~np.isfinite(t) | (np.abs(denom) < 1e-6)
+            t = (offset - (n[:, 0] * o[:, 0] + n[:, 1] * o[:, 1] + n[:, 2] * o[:, 2])) / denom
+        # Grazing rays (unit d): the plane solve is ill-conditioned; keep Embree's distance.
+        bad = ~np.isfinite(t) | (np.abs(denom) < 1e-6 * length)
         t[bad] = t32[bad]
         return np.clip(t, 0.0, tmax)
 
