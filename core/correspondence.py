@@ -101,7 +101,7 @@ def incident_triangles(faces: np.ndarray, n_vertices: int, width: int) -> np.nda
 
 
 def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
-                       chunk: int = 4096) -> BodyCorrespondence:
+                       chunk: int = 4096, search=None) -> BodyCorrespondence:
     """Nearest point on a triangle surface for each point.
 
     Candidates are the triangles around the ``k`` nearest vertices (a kd-tree), which
@@ -113,9 +113,12 @@ def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
     if not n:
         return BodyCorrespondence(np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0))
     k = min(k, len(vertices))
-    _, near = cKDTree(vertices).query(points, k=k, workers=-1)
+    # search: (kd-tree of ``vertices``, incident_triangles of width ring_width) made earlier
+    tree, incident = search if search is not None else (cKDTree(vertices), None)
+    _, near = tree.query(points, k=k, workers=-1)
     near = near.reshape(n, -1)
-    incident = incident_triangles(faces, len(vertices), ring_width)
+    if incident is None or incident.shape[1] != ring_width:
+        incident = incident_triangles(faces, len(vertices), ring_width)
     best_t = np.zeros(n, dtype=np.int64)
     best_w = np.zeros((n, 3))
     best_d = np.zeros(n)

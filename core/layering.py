@@ -16,13 +16,10 @@ import trimesh
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from .body_facts import body_facts
 from .correspondence import (
     BodyCorrespondence,
-    closest_point_on_triangles,
-    incident_triangles,
-    local_radius,
     nearest_on_surface,
-    vertex_normals,
 )
 from .hidden_faces import crossing_faces
 from .rays import RayScene
@@ -212,45 +209,6 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
     return best_t, best_layer, best_face, rays, trace_s
 
 
-def _part_junctions(vertices, faces, segment):
-    """Body vertices where two parts meet: an edge to a vertex of another part (one surface),
-    or within half an edge of another part's surface (parts modelled apart that overlap at
-    the joints). Returns (positions, own part, other part)."""
-    e = topology_of(faces, len(vertices)).edges  # the body's, kept for the next call
-    cross = segment[e[:, 0]] != segment[e[:, 1]]
-    at = [e[cross, 0], e[cross, 1]]
-    other = [segment[e[cross, 1]], segment[e[cross, 0]]]
-    lengths = np.linalg.norm(vertices[e[:, 0]] - vertices[e[:, 1]], axis=1)
-    reach = 0.5 * float(lengths.mean()) if len(lengths) else 0.0
-    # another part's surface that close has a vertex among a vertex's nearest neighbours
-    # within an edge: test the triangles around those neighbours
-    k = min(16, len(vertices))
-    d, j = cKDTree(vertices).query(vertices, k=k, distance_upper_bound=float(lengths.max(initial=0.0)) + reach,
-                                   workers=-1)
-    found = np.isfinite(d) & (segment[np.where(np.isfinite(d), j, 0)] != segment[:, None])
-    row = np.flatnonzero(found.any(1))
-    col = np.argmax(found[row], axis=1)  # the nearest neighbour of another part
-    if len(row):
-        nb = j[row, col]
-        tris = incident_triangles(faces, len(vertices), 8)[nb]  # (pairs, 8), -1 padded
-        pr, pc = np.nonzero(tris >= 0)
-        tri_id = tris[pr, pc]
-        # only the neighbour's own part's triangles
-        ok = (segment[faces[tri_id]] == segment[nb[pr]][:, None]).all(1)
-        pr, tri_id = pr[ok], tri_id[ok]
-        p = vertices[row[pr]]
-        abc = vertices[faces[tri_id]]
-        w = closest_point_on_triangles(p, abc[:, 0], abc[:, 1], abc[:, 2])
-        dist = np.linalg.norm(p - np.einsum("ij,ijk->ik", w, abc), axis=1)
-        close = dist <= reach
-        at.append(row[pr[close]])
-        other.append(segment[nb[pr[close]]])
-    at, other = np.concatenate(at), np.concatenate(other)
-    key = np.unique(at * (int(segment.max()) + 1) + other)
-    at, other = key // (int(segment.max()) + 1), key % (int(segment.max()) + 1)
-    return vertices[at], segment[at], other
-
-
 def _border_segment(points, distance, primary, junctions, margin):
     """Per point, the other part at the nearest junction of its own part within sqrt(2) times
     its body distance plus ``margin``, else -1. Near a border between parts, a garment's triangles and
@@ -388,7 +346,8 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
 
     # --- pre-processing: correspondence, global normals, segments, probe distance
     t0 = time.perf_counter()
-    body_normals = vertex_normals(bv, bf)
+    body = body_facts(bv, bf)
+    body_normals = body.normals
     probe = params.get("probe_distance")
     given = None if probe is None else np.broadcast_to(np.asarray(probe, dtype=np.float64), (n_seg,)).copy()
     if given is not None and (np.isinf(given).any() or (given < 0).any()):
@@ -396,9 +355,8 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     if given is not None and np.isnan(given).all():
         given = None
     radius = None
-    body_scene = RayScene(bv, bf)
     if given is None or np.isnan(given).any():
-        radius = local_radius(bv, bf, body_normals, scene=body_scene)
+        radius = body.radius
         l_seg = np.array([np.median(radius[body_seg == s]) if (body_seg == s).any() else np.nan
                           for s in range(n_seg)])
         # a segment with no body points of its own (the skirt) reaches as far as its linked parts
@@ -413,7 +371,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     margin = float(params.get("segment_margin", 0.01 * diag))
     if not np.isfinite(margin) or margin < 0:
         raise ValueError(f"segment_margin must be a finite distance >= 0, got {margin}")
-    junctions = (_part_junctions(bv, bf, body_seg) if margin > 0 and len(np.unique(body_seg)) > 1 and not one_part
+    junctions = (body.junctions(body_seg) if margin > 0 and len(np.unique(body_seg)) > 1 and not one_part
                  else (np.zeros((0, 3)), np.zeros(0, np.int64), np.zeros(0, np.int64)))
     corr, normals, vseg, vseg2, probe_len = [], [], [], [], []
     far = 0
@@ -422,7 +380,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     ask = [i for i in range(n_g) if g_corr_in[i] is None]
     found = {}
     if ask:
-        whole = nearest_on_surface(np.vstack([garr[i][0] for i in ask]), bv, bf)
+        whole = nearest_on_surface(np.vstack([garr[i][0] for i in ask]), bv, bf, search=body.search)
         start = np.cumsum([0] + [len(garr[i][0]) for i in ask])
         found = {i: BodyCorrespondence(whole.triangle[a:b], whole.bary[a:b], whole.distance[a:b])
                  for i, a, b in zip(ask, start[:-1], start[1:], strict=True)}

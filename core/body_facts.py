@@ -1,0 +1,109 @@
+"""What a resolve needs to know about the body alone, kept across calls for the same body (by
+content): an artist resolving again after a tweak, or cloth frame after frame on a still stage,
+pays for the body's normals, radii, nearest-point search and part junctions once."""
+
+from __future__ import annotations
+
+import hashlib
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .correspondence import closest_point_on_triangles, incident_triangles, local_radius, vertex_normals
+from .topology import topology_of
+
+_KEEP = 4
+_kept: dict = {}
+
+
+def _digest(*arrays) -> bytes:
+    h = hashlib.blake2b(digest_size=16)
+    for a in arrays:
+        a = np.ascontiguousarray(a)
+        h.update(str((a.dtype, a.shape)).encode())
+        h.update(a.data)
+    return h.digest()
+
+
+class BodyFacts:
+    """Lazily computed facts about one body mesh (vertices, faces)."""
+
+    def __init__(self, vertices, faces):
+        self.vertices, self.faces = vertices, faces
+        self._normals = self._radius = self._search = None
+        self._junctions = {}
+
+    @property
+    def normals(self) -> np.ndarray:
+        if self._normals is None:
+            self._normals = vertex_normals(self.vertices, self.faces)
+        return self._normals
+
+    @property
+    def radius(self) -> np.ndarray:
+        """Half the chord through the body from each vertex (correspondence.local_radius)."""
+        if self._radius is None:
+            self._radius = local_radius(self.vertices, self.faces, self.normals)
+        return self._radius
+
+    @property
+    def search(self):
+        """(kd-tree of the vertices, incident triangles per vertex) for nearest_on_surface."""
+        if self._search is None:
+            self._search = (cKDTree(self.vertices), incident_triangles(self.faces, len(self.vertices), 8))
+        return self._search
+
+    def junctions(self, segment):
+        key = _digest(segment)
+        if key not in self._junctions:
+            self._junctions = {key: part_junctions(self.vertices, self.faces, segment)}
+        return self._junctions[key]
+
+
+def body_facts(vertices, faces) -> BodyFacts:
+    """The BodyFacts of this body, the same object for the same content (the last few bodies)."""
+    key = _digest(vertices, faces)
+    found = _kept.pop(key, None) or BodyFacts(vertices, faces)
+    _kept[key] = found  # most recent last
+    while len(_kept) > _KEEP:
+        _kept.pop(next(iter(_kept)))
+    return found
+
+
+def part_junctions(vertices, faces, segment):
+    """Body vertices where two parts meet: an edge to a vertex of another part (one surface),
+    or within half an edge of another part's surface (parts modelled apart that overlap at
+    the joints). Returns (positions, own part, other part)."""
+    e = topology_of(faces, len(vertices)).edges  # the body's, kept for the next call
+    cross = segment[e[:, 0]] != segment[e[:, 1]]
+    at = [e[cross, 0], e[cross, 1]]
+    other = [segment[e[cross, 1]], segment[e[cross, 0]]]
+    lengths = np.linalg.norm(vertices[e[:, 0]] - vertices[e[:, 1]], axis=1)
+    reach = 0.5 * float(lengths.mean()) if len(lengths) else 0.0
+    # another part's surface that close has a vertex among a vertex's nearest neighbours
+    # within an edge: test the triangles around those neighbours
+    k = min(16, len(vertices))
+    d, j = cKDTree(vertices).query(vertices, k=k, distance_upper_bound=float(lengths.max(initial=0.0)) + reach,
+                                   workers=-1)
+    found = np.isfinite(d) & (segment[np.where(np.isfinite(d), j, 0)] != segment[:, None])
+    row = np.flatnonzero(found.any(1))
+    col = np.argmax(found[row], axis=1)  # the nearest neighbour of another part
+    if len(row):
+        nb = j[row, col]
+        tris = incident_triangles(faces, len(vertices), 8)[nb]  # (pairs, 8), -1 padded
+        pr, pc = np.nonzero(tris >= 0)
+        tri_id = tris[pr, pc]
+        # only the neighbour's own part's triangles
+        ok = (segment[faces[tri_id]] == segment[nb[pr]][:, None]).all(1)
+        pr, tri_id = pr[ok], tri_id[ok]
+        p = vertices[row[pr]]
+        abc = vertices[faces[tri_id]]
+        w = closest_point_on_triangles(p, abc[:, 0], abc[:, 1], abc[:, 2])
+        dist = np.linalg.norm(p - np.einsum("ij,ijk->ik", w, abc), axis=1)
+        close = dist <= reach
+        at.append(row[pr[close]])
+        other.append(segment[nb[pr[close]]])
+    at, other = np.concatenate(at), np.concatenate(other)
+    key = np.unique(at * (int(segment.max()) + 1) + other)
+    at, other = key // (int(segment.max()) + 1), key % (int(segment.max()) + 1)
+    return vertices[at], segment[at], other
