@@ -84,6 +84,7 @@ class LayeredScene:
         top = max([lay for lay in self.layers if lay is not None], default=-1)
         self._has_cover = np.zeros(top + 2, bool)
         self._has_cover[list(self._layer_scenes)] = True
+        self._uncovered = None  # built on the first layered shadow ray
 
     def split(self, face):
         """Global face ids -> (object, face within it)."""
@@ -133,6 +134,16 @@ class LayeredScene:
         ask = np.flatnonzero(out)
         o, d = np.asarray(origins, float)[ask], np.asarray(directions, float)[ask]
         dist = np.broadcast_to(np.asarray(max_dist, float), out.shape)[ask].copy()
+        # Anything nothing is worn over (the outermost layer, props) on the way is shown, so it
+        # blocks: one occlusion ray settles the rays a stack of covered layers would otherwise
+        # send round the layered loop.
+        uncovered = self._uncovered_scene(len(ask))
+        if uncovered is not None:
+            settled = uncovered.occluded(o, d, max_dist=dist)
+            keep = ~settled
+            if not keep.any():
+                return out
+            ask, o, d, dist = ask[keep], o[keep], d[keep], dist[keep]
         own = self.object_layer[np.full(len(out), -1) if leaving is None else np.asarray(leaving)][ask]
         travelled = np.zeros(len(ask))
         for _ in range(4):
@@ -161,6 +172,22 @@ class LayeredScene:
         else:
             out[ask] = False
         return out
+
+    def _uncovered_scene(self, rays):
+        """A ray scene of the objects nothing is worn over; None when that is every object or
+        none, or while fewer rays ask than it has triangles (building it would cost more than
+        the rays it settles save)."""
+        if self._uncovered is None:
+            ids = [i for i, lay in enumerate(self.layers) if not self._has_cover[-1 if lay is None else lay]]
+            if not ids or len(ids) == len(self.layers):
+                self._uncovered = False
+            elif rays < sum(len(self.faces[i]) for i in ids):
+                return None
+            else:
+                self._uncovered = RayScene(np.vstack([self.vertices[i] for i in ids]),
+                                           _stack_faces([self.faces[i] for i in ids],
+                                                        [len(self.vertices[i]) for i in ids]))
+        return self._uncovered or None
 
     def first_visible(self, origins, directions, layered=True, max_skips=16, min_dist=0.0) -> Visible:
         """The hit each ray shows; with ``layered`` False, plain ray tracing. ``min_dist``

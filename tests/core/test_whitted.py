@@ -179,6 +179,32 @@ def test_a_covered_lower_layer_casts_no_shadow_on_the_layer_over_it():
     np.testing.assert_allclose(img.colour, np.tile([0, 0, 1 / np.sqrt(1.01)], (len(o), 1)), rtol=1e-6)
 
 
+@pytest.mark.parametrize("settle_early", [True, False])
+def test_a_stack_of_layers_shadows_the_floor_under_it_and_nothing_beside_it(settle_early, monkeypatch):
+    """Four wavy sheets crossing each other over a floor (the body): a shadow ray going up from
+    under the stack meets the outermost sheet, so it is blocked however the covered sheets in
+    between are decided; beside the stack nothing blocks. With enough rays the outermost sheet
+    settles them with one occlusion ray each; without, they go round the layered loop; the
+    answers are the same."""
+    floor, ff = sheet(size=3.0, n=4, z=-0.1)
+    layers = []
+    for k in range(4):
+        v, f = sheet(size=1.0, n=8, z=0.004 * k, height_fn=lambda x, y, k=k: 0.006 * np.sin(9 * x + k) * np.cos(7 * y))
+        layers.append((v, f))
+    up = [np.tile([0.0, 0.0, 1.0], (len(v), 1)) for v, _ in [(floor, ff), *layers]]
+    scene = LayeredScene([(floor, ff), *layers], [0, 1, 2, 3, 4], global_normals=up, probe_distance=0.02)
+    if not settle_early:
+        monkeypatch.setattr(LayeredScene, "_uncovered_scene", lambda self, rays: None)
+    xy = np.random.default_rng(3).uniform(-1.4, 1.4, (2000, 2))
+    o = np.column_stack([xy, np.full(len(xy), -0.09)])  # just over the floor
+    d = np.tile([0.0, 0.0, 1.0], (len(o), 1))
+    blocked = scene.blocked(o, d, np.full(len(o), 10.0), leaving=np.zeros(len(o), int))
+    under = (np.abs(xy) < 0.49).all(1)
+    beside = (np.abs(xy) > 0.51).any(1)
+    assert blocked[under].all() and not blocked[beside].any()
+    assert (scene._uncovered not in (None, False)) == settle_early  # the outermost sheet's scene was used
+
+
 def test_a_lower_layer_poking_out_within_the_probe_distance_casts_no_shadow():
     """A patch of the lower layer lies 5 mm over the outer sheet, its global normals sideways, so
     its own probe misses the sheet and the camera sees it. Beside it the outer sheet is shown,
