@@ -17,7 +17,7 @@ import time
 from bench.blender import load_package
 from bench.report import REPORT, machine, table, write_section
 
-RUNS = 3
+RUNS = 5
 
 
 def _build(name):
@@ -58,20 +58,27 @@ def measure(name, size):
     row = {"scene": name, "triangles": sum(len(o.evaluated_get(depsgraph).data.loop_triangles) for o in meshes)}
     folder = tempfile.mkdtemp(prefix="deformrt-render-")
     index = {}
-    for layered in (False, True):
-        scene.deformrt.render_layered = layered
-        walls = []
-        for _ in range(RUNS):
+    # simple and layered frames taken in turn, so the machine's drift (+-10% here) falls on both
+    walls = {False: [], True: []}
+    parts = {False: [], True: []}
+    for _ in range(RUNS):
+        for layered in (False, True):
+            scene.deformrt.render_layered = layered
             t0 = time.perf_counter()
             bpy.ops.render.render()
-            walls.append(time.perf_counter() - t0)
+            walls[layered].append(time.perf_counter() - t0)
+            # the parts of a frame: reading the scene and building the ray scenes, tracing and shading
+            tracer = engine.FrameTracer(bpy.context.evaluated_depsgraph_get(), size, size)
+            img, _ = tracer.rows(0, size)
+            parts[layered].append((tracer.seconds["read_build_s"], tracer.seconds["trace_s"]))
+    for layered in (False, True):
+        scene.deformrt.render_layered = layered
         key = "layered" if layered else "simple"
-        row[f"{key}_s"] = statistics.median(walls)
-        # the parts of a frame: reading the scene and building the ray scenes, tracing and shading
+        row[f"{key}_s"] = statistics.median(walls[layered])
+        row[f"{key}_read_build_s"] = statistics.median(p[0] for p in parts[layered])
+        row[f"{key}_trace_s"] = statistics.median(p[1] for p in parts[layered])
         tracer = engine.FrameTracer(bpy.context.evaluated_depsgraph_get(), size, size)
         img, _ = tracer.rows(0, size)
-        row[f"{key}_read_build_s"] = tracer.seconds["read_build_s"]
-        row[f"{key}_trace_s"] = tracer.seconds["trace_s"]
         row[f"{key}_rays"] = img.stats["rays"] + img.stats["shadow_rays"]
         row["fixed"] = float(img.fixed.mean())
         index[key] = studio.render_passes(scene, folder, ("IndexOB",))["IndexOB"]
@@ -138,7 +145,7 @@ def main(argv=None):
     text = "\n".join([
         f"Machine: {machine()}. {size}x{size} pixels, one ray per pixel centre, sun lights with shadow rays, "
         f"medians of {RUNS} renders through `bpy.ops.render.render` (F12) with the DeformRT Layered engine, "
-        "'Layered' on and off. 'read + build' is the part of a frame spent reading the evaluated meshes and building "
+        "'Layered' on and off, taken in turn. 'read + build' is the part of a frame spent reading the evaluated meshes and building "
         "the Embree scenes; 'trace' is tracing and shading. Object-index agreement: this engine's image of the "
         "untouched scene against Cycles (1 sample, 0.01 px filter) rendering the same camera after the "
         "mesh-deformation correction (deformrt.resolve_layers; for the sheets the frame handler's correction), "
