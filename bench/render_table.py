@@ -145,11 +145,11 @@ def main(argv=None):
     text = "\n".join([
         f"Machine: {machine()}. {size}x{size} pixels, one ray per pixel centre, sun lights with shadow rays, "
         f"medians of {RUNS} renders through `bpy.ops.render.render` (F12) with the DeformRT Layered engine, "
-        "'Layered' on and off, taken in turn. 'read + build' is the part of a frame spent reading the evaluated meshes and building "
-        "the Embree scenes; 'trace' is tracing and shading. Object-index agreement: this engine's image of the "
-        "untouched scene against Cycles (1 sample, 0.01 px filter) rendering the same camera after the "
-        "mesh-deformation correction (deformrt.resolve_layers; for the sheets the frame handler's correction), "
-        "share of pixels covered in either image whose object is the same.",
+        "'Layered' on and off, taken in turn. 'read + build' is the part of a frame spent reading the evaluated "
+        "meshes and building the Embree scenes; 'trace' is tracing and shading. Object-index agreement: this "
+        "engine's image of the untouched scene against Cycles (1 sample, 0.01 px filter) rendering the same "
+        "camera after the mesh-deformation correction (deformrt.resolve_layers; for the sheets the frame "
+        "handler's correction), share of pixels covered in either image whose object is the same.",
         "",
         table(header, rows),
         "",
