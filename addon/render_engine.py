@@ -18,9 +18,8 @@ import time
 
 import bpy
 import numpy as np
-from scipy.spatial import cKDTree
 
-from ..core.correspondence import local_radius
+from ..core.body_facts import body_facts
 from ..core.layered_trace import LayeredScene
 from ..core.whitted import Image, Light, Material, camera_rays, render
 from . import mesh_io
@@ -96,9 +95,8 @@ def _body_radius_probes(objects, layers):
     body = next((i for i, lay in enumerate(layers) if lay == 0), None)
     if body is None:
         return None
-    bv, bf = objects[body]
-    radius = local_radius(bv, bf)
-    tree = cKDTree(bv)
+    facts = body_facts(*objects[body])  # kept: the next frame of a still body asks again
+    radius, tree = facts.radius, facts.search[0]
     return [None if lay is None else radius[tree.query(v, workers=-1)[1]]
             for (v, _), lay in zip(objects, layers, strict=True)]
 
