@@ -25,25 +25,32 @@ def _digest(*arrays) -> bytes:
     return h.digest()
 
 
+def _frozen(a):
+    a = np.array(a, copy=True)
+    a.flags.writeable = False
+    return a
+
+
 class BodyFacts:
     """Lazily computed facts about one body mesh (vertices, faces)."""
 
     def __init__(self, vertices, faces):
-        self.vertices, self.faces = vertices, faces
+        # own read-only copies: what is kept must not change under the key it is kept by
+        self.vertices, self.faces = _frozen(vertices), _frozen(faces)
         self._normals = self._radius = self._search = None
         self._junctions = {}
 
     @property
     def normals(self) -> np.ndarray:
         if self._normals is None:
-            self._normals = vertex_normals(self.vertices, self.faces)
+            self._normals = _frozen(vertex_normals(self.vertices, self.faces))
         return self._normals
 
     @property
     def radius(self) -> np.ndarray:
         """Half the chord through the body from each vertex (correspondence.local_radius)."""
         if self._radius is None:
-            self._radius = local_radius(self.vertices, self.faces, self.normals)
+            self._radius = _frozen(local_radius(self.vertices, self.faces, self.normals))
         return self._radius
 
     @property
