@@ -66,24 +66,22 @@ class LayeredScene:
         self.size = float(np.linalg.norm(np.ptp(all_v, axis=0))) if len(all_v) else 1.0
         self.eps = 1e-5 * max(self.size, 1e-12)  # above float32 round-off in Embree
         self.object_layer = np.array([-1 if lay is None else lay for lay in self.layers] + [-1])
-        self._layer_scenes = {}
-        self._cover_box = {}  # per layer: the box of what is worn over it, and how far its probes reach
+        # per layer: the objects worn over it, their ray scene (built on first use: plain tracing
+        # never needs it), the box they fill and how far a probe from the layer reaches
+        self._cover_ids, self._layer_scenes, self._cover_box = {}, {}, {}
         for layer in sorted({lay for lay in self.layers if lay is not None}):
-            ids = [i for i, lay in enumerate(self.layers) if lay is not None and lay > layer]
+            ids = [i for i, lay in enumerate(self.layers) if lay is not None and lay > layer and len(self.faces[i])]
             if ids:
-                scene = RayScene(np.vstack([self.vertices[i] for i in ids]),
-                                 _stack_faces([self.faces[i] for i in ids], [len(self.vertices[i]) for i in ids]))
-                to_global = np.concatenate([self.first_face[i] + np.arange(len(self.faces[i])) for i in ids])
-                self._layer_scenes[layer] = (scene, to_global)
-                box = np.vstack([scene.vertices.min(0), scene.vertices.max(0)])
-                # the farthest a probe from this layer reaches
+                self._cover_ids[layer] = ids
+                box = np.vstack([np.min([self.vertices[i].min(0) for i in ids], axis=0),
+                                 np.max([self.vertices[i].max(0) for i in ids], axis=0)])
                 reach = max((float(self.probes[i].max(initial=0.0)) for i, lay in enumerate(self.layers)
                              if lay == layer), default=0.0) + abs(self.offset)
                 self._cover_box[layer] = (box, reach)
         # per layer value (-1, a miss or an object outside the layering, last): is anything worn over it?
         top = max([lay for lay in self.layers if lay is not None], default=-1)
         self._has_cover = np.zeros(top + 2, bool)
-        self._has_cover[list(self._layer_scenes)] = True
+        self._has_cover[list(self._cover_ids)] = True
         self._uncovered = None  # built on the first layered shadow ray
 
     def split(self, face):
@@ -173,6 +171,16 @@ class LayeredScene:
             out[ask] = False
         return out
 
+    def _cover(self, layer):
+        """(ray scene of what is worn over ``layer``, its faces' ids in the combined scene)."""
+        if layer not in self._layer_scenes:
+            ids = self._cover_ids[layer]
+            scene = RayScene(np.vstack([self.vertices[i] for i in ids]),
+                             _stack_faces([self.faces[i] for i in ids], [len(self.vertices[i]) for i in ids]))
+            to_global = np.concatenate([self.first_face[i] + np.arange(len(self.faces[i])) for i in ids])
+            self._layer_scenes[layer] = (scene, to_global)
+        return self._layer_scenes[layer]
+
     def _uncovered_scene(self, rays):
         """A ray scene of the objects nothing is worn over; None when that is every object or
         none, or while fewer rays ask than it has triangles (building it would cost more than
@@ -216,12 +224,12 @@ class LayeredScene:
             obj, face = self.split(hits.face)
             hit = hits.face >= 0
             rejected = np.zeros(len(todo), bool)
-            if layered and self._layer_scenes:
+            if layered and self._cover_ids:
                 # hits on a layer something is worn over: one pass over the rays, then by layer
                 layer_of = self.object_layer[obj]
                 cand_all = np.flatnonzero(self._has_cover[layer_of])
                 by_layer = layer_of[cand_all]
-                for layer, (scene, to_global) in self._layer_scenes.items():
+                for layer in self._cover_ids:
                     cand = cand_all[by_layer == layer]
                     if not len(cand):
                         continue
@@ -233,6 +241,7 @@ class LayeredScene:
                         cand, p = cand[near], p[near]
                         if not len(cand):
                             continue
+                    scene, to_global = self._cover(layer)
                     g = self.global_normal(obj[cand], face[cand], hits.bary[cand])
                     # a probe from just outside: a higher layer at the same place is in front
                     start = p + g * self.offset
