@@ -171,12 +171,16 @@ class LayeredScene:
             out[ask] = False
         return out
 
+    def _scene_of(self, ids):
+        """One ray scene over the given objects."""
+        return RayScene(np.vstack([self.vertices[i] for i in ids]),
+                        _stack_faces([self.faces[i] for i in ids], [len(self.vertices[i]) for i in ids]))
+
     def _cover(self, layer):
         """(ray scene of what is worn over ``layer``, its faces' ids in the combined scene)."""
         if layer not in self._layer_scenes:
             ids = self._cover_ids[layer]
-            scene = RayScene(np.vstack([self.vertices[i] for i in ids]),
-                             _stack_faces([self.faces[i] for i in ids], [len(self.vertices[i]) for i in ids]))
+            scene = self._scene_of(ids)
             to_global = np.concatenate([self.first_face[i] + np.arange(len(self.faces[i])) for i in ids])
             self._layer_scenes[layer] = (scene, to_global)
         return self._layer_scenes[layer]
@@ -192,9 +196,7 @@ class LayeredScene:
             elif rays < sum(len(self.faces[i]) for i in ids):
                 return None
             else:
-                self._uncovered = RayScene(np.vstack([self.vertices[i] for i in ids]),
-                                           _stack_faces([self.faces[i] for i in ids],
-                                                        [len(self.vertices[i]) for i in ids]))
+                self._uncovered = self._scene_of(ids)
         return self._uncovered or None
 
     def first_visible(self, origins, directions, layered=True, max_skips=16, min_dist=0.0) -> Visible:
