@@ -23,7 +23,7 @@ from ..core.body_facts import body_facts
 from ..core.layered_trace import LayeredScene
 from ..core.whitted import Image, Light, Material, camera_rays, render
 from . import mesh_io
-from .layer_resolve import GLOBAL_NORMAL_ATTRIBUTE
+from .layer_resolve import GLOBAL_NORMAL_ATTRIBUTE, body_parts, probe_distances
 
 FIXED_PASS = "DeformRT Fixed"  # 1 where a probe ray changed what the pixel shows
 BACKGROUND_DEPTH = 1e10  # what Cycles writes where no surface is
@@ -69,6 +69,8 @@ def _lights(depsgraph, area_samples=4):
 def scene_arrays(depsgraph):
     """(LayeredScene, materials, objects) of the visible meshes, in world space."""
     objects, layers, normals, materials, sources = [], [], [], [], []
+    settings = depsgraph.scene.deformrt
+    parts = None
     for obj in depsgraph.scene.objects:
         if obj.type != "MESH" or not obj.visible_get():
             continue
@@ -83,20 +85,37 @@ def scene_arrays(depsgraph):
         normals.append(None if n is None or len(n) != len(a.vertices) else n @ np.linalg.inv(a.matrix_world[:3, :3]))
         materials.append(_material(obj))
         sources.append(obj)
-    settings = depsgraph.scene.deformrt
-    probe = settings.probe_distance if settings.probe_distance > 0 else _body_radius_probes(objects, layers)
+        if role == "BODY":
+            parts, _ = body_parts(obj, settings.scheme, a.vertices)
+            if parts is not None and len(parts) != len(a.vertices):
+                parts = None
+    probe = body_probes(objects, layers, probe_distances(settings, parts is not None), parts)
     return LayeredScene(objects, layers, normals, probe_distance=probe, offset=settings.offset), materials, sources
 
 
-def _body_radius_probes(objects, layers):
-    """l_s per vertex as the resolve takes it when none is set: the body's radius (half its
-    thickness straight through) under each vertex of the body and the garments; 5 cm for
-    everything else, or for everything when there is no body."""
+def body_probes(objects, layers, given=None, parts=None):
+    """l_s per vertex as the resolve takes it: ``given`` (one distance, or one per part with
+    NaN where the part keeps its default) or else the body's radius (half its thickness
+    straight through), each part's median when the body has ``parts`` (one id per body vertex)
+    and the radius under each vertex when it has none; every vertex of the body and the
+    garments takes the value at its nearest body vertex. Objects outside the layering, or all
+    of them when there is no body, keep the default (None)."""
+    if given is not None and np.ndim(given) == 0:
+        return float(given)
     body = next((i for i, lay in enumerate(layers) if lay == 0), None)
     if body is None:
         return None
     facts = body_facts(*objects[body])  # kept: the next frame of a still body asks again
     radius, tree = facts.radius, facts.search[0]
+    if parts is not None:
+        parts = np.asarray(parts, np.int64)
+        count = max(parts.max(initial=-1) + 1, 0 if given is None else len(given))
+        # a part with no body vertex of its own (the skirt) gets the body's median
+        per_part = np.array([np.median(radius[parts == s]) if (parts == s).any() else np.median(radius)
+                             for s in range(count)])
+        if given is not None:
+            per_part = np.where(np.isnan(given), per_part, given)
+        radius = per_part[parts]
     return [None if lay is None else radius[tree.query(v, workers=-1)[1]]
             for (v, _), lay in zip(objects, layers, strict=True)]
 

@@ -181,8 +181,34 @@ def test_probe_distance_zero_takes_the_body_radius_under_each_vertex(extension):
     body = trimesh.creation.icosphere(subdivisions=4, radius=0.1)
     shirt = trimesh.creation.icosphere(subdivisions=3, radius=0.12)
     objects = [(body.vertices, body.faces), (shirt.vertices, shirt.faces), (shirt.vertices + 1.0, shirt.faces)]
-    probes = engine._body_radius_probes(objects, [0, 1, None])
+    probes = engine.body_probes(objects, [0, 1, None])
     np.testing.assert_allclose(probes[0], 0.1, rtol=0.01)
     np.testing.assert_allclose(probes[1], 0.1, rtol=0.01)
     assert probes[2] is None  # a prop: the default
-    assert engine._body_radius_probes(objects[1:], [1, None]) is None  # no body: the default everywhere
+    assert engine.body_probes(objects[1:], [1, None]) is None  # no body: the default everywhere
+    assert engine.body_probes(objects, [0, 1, None], given=0.03) == 0.03  # one distance for all
+
+
+def test_probe_distance_follows_the_body_parts_and_their_overrides(extension):
+    """With body parts, each part's radius (its median), as the resolve takes l_s: a body of a
+    10 cm and a 4 cm ball, a garment over each, and a per-part override replacing one."""
+    import trimesh
+
+    engine = importlib.import_module(f"{extension.__name__}.addon.render_engine")
+    big = trimesh.creation.icosphere(subdivisions=4, radius=0.1)
+    small = trimesh.creation.icosphere(subdivisions=4, radius=0.04)
+    shift = np.array([0.5, 0.0, 0.0])
+    body_v = np.vstack([big.vertices, small.vertices + shift])
+    body_f = np.vstack([big.faces, small.faces + len(big.vertices)])
+    parts = np.repeat([0, 1], [len(big.vertices), len(small.vertices)])
+    # a stretched shell over the small ball: its vertices' nearest body points are all on it
+    shell = trimesh.creation.icosphere(subdivisions=3, radius=0.05)
+    shell_v = shell.vertices * [1.0, 1.3, 1.0] + shift
+    objects = [(body_v, body_f), (big.vertices * 1.2, big.faces), (shell_v, shell.faces)]
+    probes = engine.body_probes(objects, [0, 1, 2], parts=parts)
+    np.testing.assert_allclose(probes[1], 0.1, rtol=0.01)
+    np.testing.assert_allclose(probes[2], 0.04, rtol=0.01)
+    np.testing.assert_allclose(probes[0][parts == 1], 0.04, rtol=0.01)
+    probes = engine.body_probes(objects, [0, 1, 2], given=np.array([np.nan, 0.02]), parts=parts)
+    np.testing.assert_allclose(probes[1], 0.1, rtol=0.01)  # NaN: the part keeps its radius
+    np.testing.assert_array_equal(probes[2], 0.02)
