@@ -37,7 +37,8 @@ def set_enabled(obj, enabled: bool) -> bool:
     if mod is None:
         return False
     before = mod.show_viewport
-    mod.show_viewport = mod.show_render = enabled
+    if before != enabled or mod.show_render != enabled:  # setting it at all makes Blender evaluate again
+        mod.show_viewport = mod.show_render = enabled
     return before
 
 
