@@ -102,6 +102,8 @@ def body_probes(objects, layers, given=None, parts=None):
     of them when there is no body, keep the default (None)."""
     if given is not None and np.ndim(given) == 0:
         return float(given)
+    if given is not None and parts is None:
+        raise ValueError("probe distances per part need the body's parts")
     body = next((i for i, lay in enumerate(layers) if lay == 0), None)
     if body is None:
         return None

@@ -212,3 +212,5 @@ def test_probe_distance_follows_the_body_parts_and_their_overrides(extension):
     probes = engine.body_probes(objects, [0, 1, 2], given=np.array([np.nan, 0.02]), parts=parts)
     np.testing.assert_allclose(probes[1], 0.1, rtol=0.01)  # NaN: the part keeps its radius
     np.testing.assert_array_equal(probes[2], 0.02)
+    with pytest.raises(ValueError, match="need the body's parts"):
+        engine.body_probes(objects, [0, 1, 2], given=np.array([np.nan, 0.02]))
