@@ -206,7 +206,8 @@ class RayScene:
     def intersect(self, origins, directions, max_dist=None, min_dist=None) -> RayHits:
         """First hit of each ray with ``min_dist <= t <= max_dist`` (per ray or scalar).
 
-        Directions need not be unit; ``t`` is in the units of the vertices.
+        Directions need not be unit; ``t`` is in the units of the vertices. A miss has ``t``
+        inf, ``face`` -1 and ``bary`` (0, 0).
         """
         o, d = _as_rays(origins, directions)
         n = len(o)

@@ -47,6 +47,7 @@ def assert_matches_brute(scene, v, f, o, d, tmin=0.0, tmax=np.inf, rtol=1e-6):
     same_t = np.isclose(got.t[both], t_ref[both], rtol=rtol, atol=rtol * size)
     assert same_t.all()
     assert np.isinf(got.t[~got.hit]).all() and (got.face[~got.hit] == -1).all()
+    assert (got.bary[~got.hit] == 0).all()  # callers blend by them without masking misses
     return got, t_ref, f_ref
 
 
