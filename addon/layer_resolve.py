@@ -83,23 +83,26 @@ def part_groups(obj, scheme) -> list:
     return [n for n in names if n in obj.vertex_groups]
 
 
-def body_parts(body, scheme_name, vertices, painted_groups=True):
+def body_parts(body, scheme_name, vertices, painted_groups=True, groups=True, depsgraph=None):
     """Part id per evaluated body vertex, and where it came from; (None, reason) without.
 
     In order: DRT_<part> vertex groups (auto-segmented or painted), the stored part
-    attribute of the sample figures, a rig's deform groups named after the limbs."""
+    attribute of the sample figures, a rig's deform groups named after the limbs. Reading
+    groups adds a modifier for a moment; ``groups`` False (inside a render) reads only the
+    stored attribute, from ``depsgraph`` when given."""
     if scheme_name == "NONE":
         return None, "whole body"
     scheme = get_scheme(scheme_name)
-    painted = [n for n in part_groups(body, scheme) if n != PART_GROUP_PREFIX + "skirt"] if painted_groups else []
+    painted = ([n for n in part_groups(body, scheme) if n != PART_GROUP_PREFIX + "skirt"]
+               if painted_groups and groups else [])
     if painted:
         w = mesh_io.read_vertex_groups(body, painted)
         names = [n[len(PART_GROUP_PREFIX):] for n in painted]
         return segments_from_groups(w, names, scheme, vertices), "DRT_ vertex groups"
-    stored = mesh_io.read_point_ints(body, scene_roles.PART_ATTRIBUTE[scheme.name])
+    stored = mesh_io.read_point_ints(body, scene_roles.PART_ATTRIBUTE[scheme.name], depsgraph)
     if stored is not None:
         return np.clip(stored, 0, scheme.skirt - 1), f"attribute {scene_roles.PART_ATTRIBUTE[scheme.name]}"
-    names = [g.name for g in body.vertex_groups if not g.name.startswith(PART_GROUP_PREFIX)]
+    names = [g.name for g in body.vertex_groups if not g.name.startswith(PART_GROUP_PREFIX)] if groups else []
     if names and len({part_of_group(n, scheme) for n in names}) > 1:
         w = mesh_io.read_vertex_groups(body, names)
         return segments_from_groups(w, names, scheme, vertices), "armature vertex groups"

@@ -86,7 +86,8 @@ def scene_arrays(depsgraph):
         materials.append(_material(obj))
         sources.append(obj)
         if role == "BODY":
-            parts, _ = body_parts(obj, settings.scheme, a.vertices)
+            # no vertex groups: reading them adds a modifier, and a render must not write to the scene
+            parts, _ = body_parts(obj, settings.scheme, a.vertices, groups=False, depsgraph=depsgraph)
             if parts is not None and len(parts) != len(a.vertices):
                 parts = None
     probe = body_probes(objects, layers, probe_distances(settings, parts is not None), parts)
