@@ -113,9 +113,9 @@ def body_probes(objects, layers, given=None, parts=None):
     if parts is not None:
         parts = np.asarray(parts, np.int64)
         count = max(parts.max(initial=-1) + 1, 0 if given is None else len(given))
+        per_part = facts.part_radius(parts, count)
         # a part with no body vertex of its own (the skirt) gets the body's median
-        per_part = np.array([np.median(radius[parts == s]) if (parts == s).any() else np.median(radius)
-                             for s in range(count)])
+        per_part[np.isnan(per_part)] = np.median(radius)
         if given is not None:
             per_part = np.where(np.isnan(given), per_part, given)
         radius = per_part[parts]

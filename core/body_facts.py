@@ -60,6 +60,13 @@ class BodyFacts:
             self._search = (cKDTree(self.vertices), incident_triangles(self.faces, len(self.vertices), 8))
         return self._search
 
+    def part_radius(self, segment, count: int) -> np.ndarray:
+        """Each part's median radius (the seed's l_s per part), for ids 0..count-1 of one
+        segment id per vertex; NaN for a part with no vertex of its own (the skirt)."""
+        segment = np.asarray(segment)
+        return np.array([np.median(self.radius[segment == s]) if (segment == s).any() else np.nan
+                         for s in range(count)])
+
     def junctions(self, segment):
         key = _digest(segment)
         if key not in self._junctions:

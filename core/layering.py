@@ -357,8 +357,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     radius = None
     if given is None or np.isnan(given).any():
         radius = body.radius
-        l_seg = np.array([np.median(radius[body_seg == s]) if (body_seg == s).any() else np.nan
-                          for s in range(n_seg)])
+        l_seg = body.part_radius(body_seg, n_seg)
         # a segment with no body points of its own (the skirt) reaches as far as its linked parts
         for s in np.flatnonzero(np.isnan(l_seg)):
             linked = l_seg[links[s]]

@@ -1,6 +1,7 @@
 """Body facts kept across calls: the same answers as computing afresh, never stale."""
 
 import numpy as np
+import trimesh
 
 from core import body_facts as bf_module
 from core.body_facts import body_facts, part_junctions
@@ -43,3 +44,16 @@ def test_a_resolve_with_kept_facts_equals_one_from_scratch():
     for a, b in zip(first.garments, again.garments, strict=True):
         np.testing.assert_array_equal(a.vertices, b.vertices)
         np.testing.assert_array_equal(a.faces, b.faces)
+
+
+def test_part_radius_is_each_parts_radius_and_nan_for_a_part_without_vertices():
+    """Two balls of 10 cm and 4 cm as parts 0 and 1: half the chord through a ball's centre is
+    its radius; part 2 has no vertex of its own."""
+    big = trimesh.creation.icosphere(subdivisions=4, radius=0.1)
+    small = trimesh.creation.icosphere(subdivisions=4, radius=0.04)
+    v = np.vstack([big.vertices, small.vertices + [0.5, 0.0, 0.0]])
+    f = np.vstack([big.faces, small.faces + len(big.vertices)])
+    parts = np.repeat([0, 1], [len(big.vertices), len(small.vertices)])
+    got = body_facts(v, f).part_radius(parts, 3)
+    np.testing.assert_allclose(got[:2], [0.1, 0.04], rtol=0.01)
+    assert np.isnan(got[2])
