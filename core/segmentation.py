@@ -215,48 +215,58 @@ def _nearest_on_convex(points, hv, hf, chunk=1024):
     """Per point, the unit normal of the hull facet holding its nearest hull point and the
     vector from that point to it (outward hull, wound outward).
 
-    Exact: an outside point's nearest point lies on a facet whose plane it is above (the
-    normal cone at the nearest point holds p - q), so only those facets are tried; an
-    inside point's nearest facet is the one whose plane is closest.
+    Exact. The hull lies behind every facet's plane, so an outside point is at least its
+    height above any plane away from the hull: where its nearest point on the facet of the
+    highest plane is that far, nothing is nearer (most points, the ones over a facet's
+    interior). The others (over an edge or corner) try every facet whose plane they are
+    above by at most that distance and whose bounding sphere is that close. An inside
+    point's nearest facet is the one whose plane is closest.
     """
     tri = hv[hf]
     normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
     offset = np.einsum("ij,ij->i", normal, tri[:, 0])
-    # the nearest hull vertex bounds the distance from above, a facet's plane from below
-    bound, _ = cKDTree(hv).query(points)
     best = np.zeros(len(points), dtype=np.int64)
     away = np.zeros_like(points)
     normal32, offset32 = normal.astype(np.float32), offset.astype(np.float32)
-    # a facet is no nearer than its plane, nor than its bounding sphere
     centre = tri.mean(1)
-    reach = np.linalg.norm(tri - centre[:, None], axis=2).max(1)
+    reach32 = np.linalg.norm(tri - centre[:, None], axis=2).max(1).astype(np.float32)
     centre32, centre_sq = centre.astype(np.float32), np.einsum("ij,ij->i", centre, centre).astype(np.float32)
     slack = 1e-5 * float(np.ptp(hv, axis=0).max())
-    ub_all = (bound + slack).astype(np.float32)
-    reach32 = reach.astype(np.float32)
+
+    def nearest_on(p, facets):
+        t = tri[facets]
+        return np.einsum("ij,ijk->ik", closest_point_on_triangles(p, t[:, 0], t[:, 1], t[:, 2]), t)
 
     def run(sl):
         p = points[sl]
-        p32 = p.astype(np.float32)
-        # (c, facets) signed distance to each facet's plane; float32 only picks candidates
-        height = p32 @ normal32.T - offset32
-        ub = ub_all[sl, None]
-        near = p32 @ centre32.T
-        near *= -2
-        near += np.einsum("ij,ij->i", p32, p32)[:, None] + centre_sq
-        near -= np.square(ub + reach32)
-        row, col = np.nonzero((height > 0) & (height <= ub) & (near <= 0))
-        w = closest_point_on_triangles(p[row], tri[col, 0], tri[col, 1], tri[col, 2])
-        q = np.einsum("ij,ijk->ik", w, tri[col])
-        dist = np.linalg.norm(p[row] - q, axis=1)
-        # the pair with the smallest distance per point: sort by (point, distance)
-        order = np.lexsort((dist, row))
-        first = order[np.r_[True, row[order][1:] != row[order][:-1]]] if len(order) else order
-        pick = np.argmax(height, axis=1)  # inside: the closest plane
-        vec = -(np.einsum("ij,ij->i", p, normal[pick]) - offset[pick])[:, None] * normal[pick]
-        pick[row[first]] = col[first]
-        vec[row[first]] = p[row[first]] - q[first]
+        # float32 only picks the plane and the candidates; distances are float64
+        height = p.astype(np.float32) @ normal32.T
+        height -= offset32
+        pick = np.argmax(height, axis=1)
+        plane = np.einsum("ij,ij->i", p, normal[pick]) - offset[pick]
+        vec = -plane[:, None] * normal[pick]
+        out = np.flatnonzero(height[np.arange(len(pick)), pick] > 0)
+        if len(out):
+            po = p[out]
+            vec[out] = po - nearest_on(po, pick[out])
+            dist = np.linalg.norm(vec[out], axis=1)
+            more = dist > plane[out] + 1e-3 * slack
+            out, po, ub = out[more], po[more], (dist[more] + slack).astype(np.float32)[:, None]
+        if len(out):
+            hb = height[out]
+            near = po.astype(np.float32) @ centre32.T
+            near *= -2
+            near += np.einsum("ij,ij->i", po, po).astype(np.float32)[:, None] + centre_sq
+            near -= np.square(ub + reach32)
+            row, col = np.nonzero((hb > 0) & (hb <= ub) & (near <= 0))
+            q = nearest_on(po[row], col)
+            dist = np.linalg.norm(po[row] - q, axis=1)
+            # the pair with the smallest distance per point: sort by (point, distance)
+            order = np.lexsort((dist, row))
+            first = order[np.r_[True, row[order][1:] != row[order][:-1]]] if len(order) else order
+            pick[out[row[first]]] = col[first]
+            vec[out[row[first]]] = po[row[first]] - q[first]
         best[sl] = pick
         away[sl] = vec
 

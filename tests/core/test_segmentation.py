@@ -2,11 +2,14 @@
 
 import numpy as np
 import pytest
+from scipy.spatial import ConvexHull
 
+from core.correspondence import closest_point_on_triangles
 from core.layering import resolve_layers
 from core.segmentation import (
     S5,
     S13,
+    _nearest_on_convex,
     boundary_loops,
     hull_normals,
     is_skirt,
@@ -198,6 +201,44 @@ def test_hull_normals_point_away_from_the_nearest_hull_point():
     expect_in = np.zeros((inner.sum(), 3))
     expect_in[np.arange(len(face)), face % 3] = np.where(face < 3, -1.0, 1.0)
     np.testing.assert_allclose(n[inner], expect_in, atol=1e-9)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_nearest_on_convex_hull_matches_every_facet_tried(seed):
+    # A hull of an elongated point cloud (small facets and long slivers, like a body's), points
+    # inside, outside, over its edges and corners; the reference tries every facet.
+    rng = np.random.default_rng(seed)
+    cloud = rng.normal(size=(300, 3)) * [0.3, 0.15, 0.8]
+    hull = ConvexHull(cloud)
+    used = np.unique(hull.simplices)
+    remap = np.full(len(cloud), -1)
+    remap[used] = np.arange(len(used))
+    hv, hf = cloud[used], remap[hull.simplices]
+    tri = hv[hf]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    flip = np.einsum("ij,ij->i", n, tri.mean(1) - hv.mean(0)) < 0
+    hf[flip] = hf[flip][:, ::-1]
+    tri = hv[hf]
+    pts = np.vstack([rng.normal(size=(3000, 3)) * [0.4, 0.25, 1.0],
+                     hv[rng.integers(len(hv), size=200)] * 1.2,  # beyond the corners
+                     tri[:, :2].mean(1)[:200] * 1.1])  # beyond the edges
+    facet, away = _nearest_on_convex(pts, hv, hf)
+    # every facet of every point, by brute force
+    p = np.repeat(pts, len(hf), axis=0)
+    t = np.tile(tri, (len(pts), 1, 1))
+    q = np.einsum("ij,ijk->ik", closest_point_on_triangles(p, t[:, 0], t[:, 1], t[:, 2]), t)
+    dist = np.linalg.norm(p - q, axis=1).reshape(len(pts), len(hf))
+    unit = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    unit /= np.linalg.norm(unit, axis=1, keepdims=True)
+    height = pts @ unit.T - np.einsum("ij,ij->i", unit, tri[:, 0])
+    outside = height.max(1) > 0
+    assert 0.2 < outside.mean() < 0.9
+    np.testing.assert_allclose(np.linalg.norm(away, axis=1)[outside], dist.min(1)[outside], rtol=0, atol=1e-12)
+    # inside: the depth below the closest plane, along its normal
+    np.testing.assert_allclose(np.einsum("ij,ij->i", away, facet)[~outside], -height.max(1)[~outside], atol=1e-12)
+    # the facet returned holds a nearest point (ties between facets sharing it are either)
+    chosen = np.argmax(facet @ unit.T, axis=1)
+    np.testing.assert_allclose(dist[np.arange(len(pts)), chosen][outside], dist.min(1)[outside], atol=1e-12)
 
 
 def test_scheme_needs_body_segments_in_range():
