@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from .rays import RayScene
+from .vectors import norms
 
 # Past a hit the next search starts this far on (a fraction of the edge plus the scene's
 # size), or float32 tracing could meet the same triangle again.
@@ -53,7 +54,7 @@ def crossing_faces(vertices, faces, edges) -> tuple[list, int]:
         return removed, 0
     start = [v[e[:, 0]] for v, e in zip(vertices, edges, strict=True)]
     vec = [v[e[:, 1]] - v[e[:, 0]] for v, e in zip(vertices, edges, strict=True)]
-    length = [np.linalg.norm(x, axis=1) for x in vec]
+    length = [norms(x) for x in vec]
     edge_lo = [np.minimum(a, a + b) for a, b in zip(start, vec, strict=True)]
     edge_hi = [np.maximum(a, a + b) for a, b in zip(start, vec, strict=True)]
     crossed = [np.zeros(len(e), dtype=bool) for e in edges]

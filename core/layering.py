@@ -25,6 +25,7 @@ from .hidden_faces import crossing_faces
 from .rays import RayScene
 from .segmentation import get_scheme, hull_normals, is_skirt, skirt_segments
 from .topology import ring_distance, topology_of, vertex_adjacency
+from .vectors import norms
 
 
 @dataclass
@@ -60,14 +61,36 @@ def _per_garment(value, n, name):
     return list(value)
 
 
+class _LayerLayout:
+    """What a layer's segment scenes need that moving its vertices does not change: which
+    triangles and which of their corners rays of each segment may meet."""
+
+    def __init__(self, faces, face_segment, links, n_vertices):
+        self.faces, self.face_segment, self.links, self.n_vertices = faces, face_segment, links, n_vertices
+        self._ids = {}
+        self._corners = {}
+
+    def ids(self, segment):
+        if segment not in self._ids:
+            self._ids[segment] = np.flatnonzero(self.links[segment][self.face_segment])
+        return self._ids[segment]
+
+    def corners(self, segment):
+        """Vertices of the segment's triangles: their box is the triangles' box."""
+        if segment not in self._corners:
+            used = np.zeros(self.n_vertices, dtype=bool)
+            used[self.faces[self.ids(segment)].ravel()] = True
+            self._corners[segment] = np.flatnonzero(used)
+        return self._corners[segment]
+
+
 class _SegmentScenes:
     """Embree scenes over one layer's triangles, one per segment, built on first use."""
 
-    def __init__(self, vertices, faces, face_segment, links):
-        self.vertices, self.faces, self.face_segment = vertices, faces, face_segment
-        self.links = links  # links[s, t]: rays of segment s meet triangles of segment t
+    def __init__(self, vertices, layout):
+        self.vertices, self.layout = vertices, layout
+        self.faces, self.face_segment = layout.faces, layout.face_segment
         self._scenes = {}
-        self._ids = {}
         self._bounds = {}
         self._face_box = None
         self.built = 0
@@ -81,9 +104,7 @@ class _SegmentScenes:
 
     def ids(self, segment):
         """The layer's triangles that rays of ``segment`` may meet."""
-        if segment not in self._ids:
-            self._ids[segment] = np.flatnonzero(self.links[segment][self.face_segment])
-        return self._ids[segment]
+        return self.layout.ids(segment)
 
     def get(self, segment):
         if segment not in self._scenes:
@@ -144,8 +165,8 @@ class _SegmentScenes:
             elif len(ids) == len(self.faces):  # all of the layer: its vertices' box, never smaller
                 self._bounds[segment] = (self.vertices.min(0), self.vertices.max(0))
             else:
-                f_lo, f_hi = self._face_boxes()
-                self._bounds[segment] = (f_lo[ids].min(0), f_hi[ids].max(0))
+                v = self.vertices[self.layout.corners(segment)]
+                self._bounds[segment] = (v.min(0), v.max(0))
         box = self._bounds[segment]
         return box is not None and bool((box[0] <= hi).all() and (box[1] >= lo).all())
 
@@ -238,14 +259,14 @@ def _spread_from_hits(vertices, faces, topology, hit_points, amplitude, seed_ver
     of two triangles sharing an edge the ray reported.
     """
     e = topology.edges
-    edge = float(np.linalg.norm(vertices[e[:, 0]] - vertices[e[:, 1]], axis=1).mean()) if len(e) else 0.0
+    edge = float(norms(vertices[e[:, 0]] - vertices[e[:, 1]]).mean()) if len(e) else 0.0
     c = float(falloff) if falloff is not None else 4.0 * edge
     if c <= 0:
         out = np.zeros(len(vertices))
         np.maximum.at(out, seed_vertices, np.repeat(amplitude, 3))
         return out
     reach = 3.0 * c
-    lengths = np.linalg.norm(vertices[faces[:, 1]] - vertices[faces[:, 0]], axis=1)
+    lengths = norms(vertices[faces[:, 1]] - vertices[faces[:, 0]])
     shortest = max(float(lengths[lengths > 0].min(initial=edge)), 1e-3 * edge, 1e-300)
     rings = int(min(256, np.ceil(reach / shortest) + 1))
     near_patch = ring_distance(topology.adjacency, np.unique(seed_vertices), rings) >= 0
@@ -392,7 +413,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
                              f"{len(v)} vertices, or triangles beyond the body's {len(bf)}")
         else:
             # the same body point, where the body is now (posed, or the cloth has moved)
-            c = BodyCorrespondence(c.triangle, c.bary, np.linalg.norm(v - c.points(bv, bf), axis=1))
+            c = BodyCorrespondence(c.triangle, c.bary, norms(v - c.points(bv, bf)))
         corr.append(c)
         if g_normals_in[i] is not None:
             n = np.asarray(g_normals_in[i], dtype=np.float64)
@@ -447,7 +468,8 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     edges = [t.edges for t in topo]
     hems = [t.hem_vertices for t in topo]
     fseg = [_face_segment(f, s) for f, s in zip(faces, vseg, strict=True)]
-    scenes = [_SegmentScenes(verts[i], faces[i], fseg[i], links) for i in range(n_g)]
+    layouts = [_LayerLayout(faces[i], fseg[i], links, len(verts[i])) for i in range(n_g)]
+    scenes = [_SegmentScenes(verts[i], layouts[i]) for i in range(n_g)]
     rays = {"boundary": 0, "push": 0, "hidden": 0}
     moved_by = {"boundary": 0, "push": 0}
 
@@ -460,7 +482,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     floor_clamped = 0
     # An edge between two vertices held at the floor bows into a curved body by its sagitta
     # e^2 / 8R; a tenth of the longest mean edge covers body radii down to 1.25 edges.
-    chord = 0.1 * max((float(np.linalg.norm(verts[i][e[:, 0]] - verts[i][e[:, 1]], axis=1).mean())
+    chord = 0.1 * max((float(norms(verts[i][e[:, 0]] - verts[i][e[:, 1]]).mean())
                        for i, e in enumerate(edges) if len(e)), default=0.0)
 
     def body_floor(k, idx, move):
@@ -474,7 +496,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         return out
 
     def refresh(i):
-        scenes[i] = _SegmentScenes(verts[i], faces[i], fseg[i], links)
+        scenes[i] = _SegmentScenes(verts[i], layouts[i])
 
     # --- boundary pass (Fig. 4.10): higher layers' hem points look outward for lower layers
     t0 = time.perf_counter()

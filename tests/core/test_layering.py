@@ -244,12 +244,13 @@ def test_a_large_offset_never_pushes_garments_into_the_body():
 
 
 def test_culled_hem_scenes_give_the_same_hits_as_the_whole_layer():
-    from core.layering import _SegmentScenes, _trace_layers
+    from core.layering import _LayerLayout, _SegmentScenes, _trace_layers
     from core.topology import boundary_vertices
 
     lower, upper = noisy_sleeves(n=48)
     f = np.asarray(lower.faces)
-    scenes = [_SegmentScenes(np.asarray(lower.vertices), f, np.zeros(len(f), int), np.eye(1, dtype=bool))]
+    layout = _LayerLayout(f, np.zeros(len(f), int), np.eye(1, dtype=bool), len(lower.vertices))
+    scenes = [_SegmentScenes(np.asarray(lower.vertices), layout)]
     hem = np.flatnonzero(boundary_vertices(upper.faces, len(upper.vertices)))
     o = np.asarray(upper.vertices)[hem]
     n = np.column_stack([o[:, :2], np.zeros(len(o))])
@@ -265,9 +266,28 @@ def test_culled_hem_scenes_give_the_same_hits_as_the_whole_layer():
         a, b = f[f_cull[full.hit]], f[full.face[full.hit]]
         assert (a[:, :, None] == b[:, None, :]).any((1, 2)).all()
     # and the culled scene really is a part of the layer (the hems' bands)
-    _, ids = _SegmentScenes(np.asarray(lower.vertices), f, np.zeros(len(f), int), np.eye(1, dtype=bool)).get_near(
-        0, o, 0.03)
+    _, ids = _SegmentScenes(np.asarray(lower.vertices), layout).get_near(0, o, 0.03)
     assert len(ids) < 0.5 * len(f)
+
+
+def test_segment_bounds_are_the_boxes_of_the_triangles_each_segment_may_meet():
+    from core.layering import _LayerLayout, _SegmentScenes
+
+    lower, _ = noisy_sleeves(n=24)
+    v, f = np.asarray(lower.vertices), np.asarray(lower.faces)
+    seg = (v[f].mean(1)[:, 2] > np.median(v[:, 2])).astype(int)  # two segments, bottom and top
+    seg[v[f].mean(1)[:, 0] > 0.5 * v[:, 0].max()] = 2  # a third on one side
+    links = np.eye(3, dtype=bool)
+    links[0, 2] = links[2, 0] = True
+    scenes = _SegmentScenes(v, _LayerLayout(f, seg, links, len(v)))
+    for s in range(3):
+        tri = v[f[links[s][seg]]].reshape(-1, 3)
+        lo, hi = tri.min(0), tri.max(0)
+        assert scenes.bounds_overlap(s, lo, hi)
+        np.testing.assert_array_equal(scenes._bounds[s][0], lo)
+        np.testing.assert_array_equal(scenes._bounds[s][1], hi)
+        # a box just beside it does not overlap
+        assert not scenes.bounds_overlap(s, hi + 1e-9, hi + 1.0)
 
 
 def test_a_joint_bulging_beside_the_probe_ray_still_holds_the_lower_layer_out():

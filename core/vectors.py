@@ -1,0 +1,15 @@
+"""Row-wise vector helpers for the hot loops."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def norms(v: np.ndarray) -> np.ndarray:
+    """Lengths of the rows of an (n, 3) array: the same numbers as ``np.linalg.norm(v, axis=1)``
+    (the same sum, in the same order), several times faster, which its generic reduction is not."""
+    v = np.asarray(v)
+    return np.sqrt(v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] + v[:, 2] * v[:, 2])
+
+
+__all__ = ["norms"]
