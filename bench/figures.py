@@ -65,12 +65,15 @@ def run_scene(name):
     rows = [before_row(body, garments, normals, tris)]
     rows.append(row("resolve_layers, S5 parts", tris, measure(body, garments, ref.garments, normals, secs,
                                                                 ref.removed_faces)))
-    stages = []
-    st = ref.stats
-    ms_per_55k = 1000 * st["push_trace_s"] / max(st["rays_push"], 1) * 55000
-    stages.append([name, f"{tris:,}", f"{st['correspondence_s']:.3f}", f"{st['boundary_pass_s']:.3f}",
-                   f"{st['push_behind_s']:.3f}", f"{st['hidden_faces_s']:.3f}", f"{st['total_s']:.3f}",
-                   f"{st['rays_push']:,}", f"{ms_per_55k:.1f}", str(st["skirts"])])
+    # the first call pays for the body's facts (kept for the next call) and the garments' topology;
+    # the stages are the median of the calls after it, what an artist resolving again waits for
+    keys = ["correspondence_s", "boundary_pass_s", "push_behind_s", "hidden_faces_s", "total_s", "push_trace_s"]
+    warm = np.median([[timed(body, garments, **s5)[0].stats[k] for k in keys] for _ in range(3)], axis=0)
+    st = dict(zip(keys, warm, strict=True))
+    ms_per_55k = 1000 * st["push_trace_s"] / max(ref.stats["rays_push"], 1) * 55000
+    stages = [[name, f"{tris:,}", f"{secs:.3f}", f"{st['correspondence_s']:.3f}", f"{st['boundary_pass_s']:.3f}",
+               f"{st['push_behind_s']:.3f}", f"{st['hidden_faces_s']:.3f}", f"{st['total_s']:.3f}",
+               f"{ref.stats['rays_push']:,}", f"{ms_per_55k:.1f}", str(ref.stats["skirts"])]]
     variants = [("resolve_layers, no parts (connected pieces)", {}),
                 ("S5, no boundary pass", {**s5, "boundary_pass": False}),
                 ("S5, no push-behind", {**s5, "push_behind": False}),
@@ -114,8 +117,13 @@ def main(argv=None):
         *parts,
         "### Time per stage (S5 parts)",
         "",
-        table(["scene", "triangles", "correspondence s", "boundary pass s", "push-behind s", "hidden faces s",
-               "total s", "push probe rays", "ms per 55k probe rays (tracing only)", "skirts found"], stage_rows),
+        "The first call in a process (the rows above) also finds the body's normals, radii, search tree and part "
+        "junctions and the garments' topology, all kept for the next call; the stages are the median of three "
+        "calls after it.",
+        "",
+        table(["scene", "triangles", "first call s", "correspondence s", "boundary pass s", "push-behind s",
+               "hidden faces s", "total s", "push probe rays", "ms per 55k probe rays (tracing only)",
+               "skirts found"], stage_rows),
         "",
         *calm_lines,
     ])

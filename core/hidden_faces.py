@@ -53,7 +53,7 @@ def crossing_faces(vertices, faces, edges) -> tuple[list, int]:
     if len(present) < 2:
         return removed, 0
     start = [v[e[:, 0]] for v, e in zip(vertices, edges, strict=True)]
-    vec = [v[e[:, 1]] - v[e[:, 0]] for v, e in zip(vertices, edges, strict=True)]
+    vec = [v[e[:, 1]] - a for v, e, a in zip(vertices, edges, start, strict=True)]
     length = [norms(x) for x in vec]
     edge_lo = [np.minimum(a, a + b) for a, b in zip(start, vec, strict=True)]
     edge_hi = [np.maximum(a, a + b) for a, b in zip(start, vec, strict=True)]

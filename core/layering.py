@@ -133,7 +133,7 @@ class _SegmentScenes:
         lo, hi = self._face_boxes()
         lo, hi = lo[ids], hi[ids]
         centre = 0.5 * (lo + hi)
-        cell = reach + 0.5 * float(np.linalg.norm(hi - lo, axis=1).max(initial=0.0))
+        cell = reach + 0.5 * float(norms(hi - lo).max(initial=0.0))
         keep = np.zeros(len(ids), dtype=bool)
         if cell > 0 and len(ids) and len(points):
             base = points.min(0) - 2 * cell  # every cell index of interest is >= 1
