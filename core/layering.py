@@ -243,7 +243,7 @@ def _border_segment(points, distance, primary, junctions, margin):
             continue
         # within 45 degrees of the junction as seen from the body: sqrt(2) times the distance
         reach = np.sqrt(2.0) * distance[mine] + margin
-        d, j = cKDTree(pos[at]).query(points[mine], distance_upper_bound=float(reach.max()))
+        d, j = cKDTree(pos[at]).query(points[mine], distance_upper_bound=float(reach.max()), workers=-1)
         ok = d <= reach
         out[mine[ok]] = other[at][j[ok]]
     return out

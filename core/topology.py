@@ -41,15 +41,17 @@ def vertex_adjacency(faces: np.ndarray, n_vertices: int, edges=None) -> sparse.c
 
 def ring_distance(adjacency: sparse.csr_matrix, seeds: np.ndarray, max_rings: int) -> np.ndarray:
     """Topological distance (in edge hops) from the seed vertices, up to ``max_rings``; -1 beyond.
+    ``adjacency`` is symmetric (``vertex_adjacency``).
 
     One breadth-first search from all seeds at once, in C (an unweighted multi-source
     Dijkstra): it visits only what lies within reach, where a sparse product per ring goes
-    over the whole mesh every ring."""
+    over the whole mesh every ring. Searched as directed: on a symmetric graph that is the
+    same search, without scipy transposing the matrix first for an undirected one."""
     n = adjacency.shape[0]
     seeds = np.unique(np.asarray(seeds, dtype=np.int64))
     if not len(seeds) or max_rings < 0:
         return np.full(n, -1, dtype=np.int64)
-    d = csgraph.dijkstra(adjacency, directed=False, indices=seeds, unweighted=True, limit=max_rings + 0.5,
+    d = csgraph.dijkstra(adjacency, directed=True, indices=seeds, unweighted=True, limit=max_rings + 0.5,
                          min_only=True)
     return np.where(np.isfinite(d), d, -1).astype(np.int64)
 
