@@ -274,6 +274,20 @@ def _nearest_on_convex(points, hv, hf, chunk=1024):
     return normal[best], away
 
 
+def _hull_mesh(points, hull):
+    """A scipy ConvexHull of ``points`` as a triangle mesh of its own vertices, wound outward."""
+    used = np.unique(hull.simplices)
+    remap = np.full(len(points), -1)
+    remap[used] = np.arange(len(used))
+    hv, hf = points[used], remap[hull.simplices]
+    # qhull's simplices are not consistently wound: orient each outward from the centroid
+    tri = hv[hf]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    flip = np.einsum("ij,ij->i", n, tri.mean(1) - hv.mean(0)) < 0
+    hf[flip] = hf[flip][:, ::-1]
+    return hv, hf
+
+
 def hull_normals(body_vertices, body_segments, parts, points) -> np.ndarray:
     """Outward normals for skirt points: from the convex hull of the body parts it spans.
 
@@ -298,15 +312,7 @@ def hull_normals(body_vertices, body_segments, parts, points) -> np.ndarray:
                 hull = ConvexHull(v)
     except (QhullError, ValueError) as err:
         raise ValueError(f"the body parts {list(parts)} have no 3-D extent for a skirt hull: {err}") from None
-    used = np.unique(hull.simplices)
-    remap = np.full(len(v), -1)
-    remap[used] = np.arange(len(used))
-    hv, hf = v[used], remap[hull.simplices]
-    # qhull's simplices are not consistently wound: orient each outward from the centroid
-    tri = hv[hf]
-    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    flip = np.einsum("ij,ij->i", n, tri.mean(1) - hv.mean(0)) < 0
-    hf[flip] = hf[flip][:, ::-1]
+    hv, hf = _hull_mesh(v, hull)
     # Outside the hull the direction from its nearest point is the outward normal, and it
     # turns smoothly round the hull's edges; a facet's own normal would jump between facets
     # (a flared hem beside the legs' hull edge would point backwards). On or inside the hull

@@ -9,6 +9,7 @@ from core.layering import resolve_layers
 from core.segmentation import (
     S5,
     S13,
+    _hull_mesh,
     _nearest_on_convex,
     boundary_loops,
     hull_normals,
@@ -209,16 +210,12 @@ def test_nearest_on_convex_hull_matches_every_facet_tried(seed):
     # inside, outside, over its edges and corners; the reference tries every facet.
     rng = np.random.default_rng(seed)
     cloud = rng.normal(size=(300, 3)) * [0.3, 0.15, 0.8]
-    hull = ConvexHull(cloud)
-    used = np.unique(hull.simplices)
-    remap = np.full(len(cloud), -1)
-    remap[used] = np.arange(len(used))
-    hv, hf = cloud[used], remap[hull.simplices]
+    hv, hf = _hull_mesh(cloud, ConvexHull(cloud))
     tri = hv[hf]
-    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    flip = np.einsum("ij,ij->i", n, tri.mean(1) - hv.mean(0)) < 0
-    hf[flip] = hf[flip][:, ::-1]
-    tri = hv[hf]
+    # wound outward: every vertex lies behind every facet's plane
+    unit = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    unit /= np.linalg.norm(unit, axis=1, keepdims=True)
+    assert (hv @ unit.T - np.einsum("ij,ij->i", unit, tri[:, 0]) < 1e-12).all()
     pts = np.vstack([rng.normal(size=(3000, 3)) * [0.4, 0.25, 1.0],
                      hv[rng.integers(len(hv), size=200)] * 1.2,  # beyond the corners
                      tri[:, :2].mean(1)[:200] * 1.1])  # beyond the edges
@@ -228,8 +225,6 @@ def test_nearest_on_convex_hull_matches_every_facet_tried(seed):
     t = np.tile(tri, (len(pts), 1, 1))
     q = np.einsum("ij,ijk->ik", closest_point_on_triangles(p, t[:, 0], t[:, 1], t[:, 2]), t)
     dist = np.linalg.norm(p - q, axis=1).reshape(len(pts), len(hf))
-    unit = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    unit /= np.linalg.norm(unit, axis=1, keepdims=True)
     height = pts @ unit.T - np.einsum("ij,ij->i", unit, tri[:, 0])
     outside = height.max(1) > 0
     assert 0.2 < outside.mean() < 0.9
