@@ -16,6 +16,7 @@ import numpy as np
 
 from . import embree_direct
 from .parallel import map_chunks, thread_count
+from .vectors import norms
 
 try:
     from embreex import rtcore as _rtc
@@ -102,7 +103,7 @@ def _as_rays(origins, directions) -> tuple[np.ndarray, np.ndarray]:
     d = _as_points("directions", directions)
     if d.shape != o.shape:
         raise ValueError(f"origins {o.shape} and directions {d.shape} must have the same shape")
-    length = np.sqrt(np.einsum("ij,ij->i", d, d))  # faster than linalg.norm along rows
+    length = norms(d)
     if len(length) and not (length > 0).all():
         raise ValueError(f"directions has {(length <= 0).sum()} zero-length vectors")
     return o, d / length[:, None] if len(d) else d

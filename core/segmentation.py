@@ -18,6 +18,7 @@ from scipy.spatial import ConvexHull, QhullError, cKDTree
 from .correspondence import closest_point_on_triangles
 from .parallel import map_chunks
 from .topology import topology_of
+from .vectors import norms
 
 
 @dataclass(frozen=True)
@@ -250,7 +251,7 @@ def _nearest_on_convex(points, hv, hf, chunk=1024):
         if len(out):
             po = p[out]
             vec[out] = po - nearest_on(po, pick[out])
-            dist = np.linalg.norm(vec[out], axis=1)
+            dist = norms(vec[out])
             more = dist > plane[out] + 1e-3 * slack
             out, po, ub = out[more], po[more], (dist[more] + slack).astype(np.float32)[:, None]
         if len(out):
@@ -261,7 +262,7 @@ def _nearest_on_convex(points, hv, hf, chunk=1024):
             near -= np.square(ub + reach32)
             row, col = np.nonzero((hb > 0) & (hb <= ub) & (near <= 0))
             q = nearest_on(po[row], col)
-            dist = np.linalg.norm(po[row] - q, axis=1)
+            dist = norms(po[row] - q)
             # the pair with the smallest distance per point: sort by (point, distance)
             order = np.lexsort((dist, row))
             first = order[np.r_[True, row[order][1:] != row[order][:-1]]] if len(order) else order
