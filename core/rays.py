@@ -270,11 +270,15 @@ class RayScene:
         out[idx] = np.concatenate(self._map_chunks(run, len(org))) >= 0
         return out
 
-    def _map_chunks(self, fn, n):
+    def commit(self) -> None:
+        """Build the acceleration structure now (else the first ray after a build or a move
+        does), so callers can time the build apart from tracing."""
         if self._scene is not None and not self._scene.is_committed:
-            # embreex commits a new or moved scene on its first ray: do it here, on one thread,
-            # not in several chunks at once
+            # embreex commits on its first ray: one ray here, on one thread, not in several chunks at once
             self._scene.run(np.zeros((1, 3), np.float32), np.array([[0.0, 0.0, 1.0]], np.float32))
+
+    def _map_chunks(self, fn, n):
+        self.commit()
         return map_chunks(fn, n, _MIN_RAYS_PER_CHUNK, self.threads)
 
     def _trace_embree(self, o, d, tmax):
