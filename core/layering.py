@@ -171,6 +171,10 @@ class _SegmentScenes:
         return box is not None and bool((box[0] <= hi).all() and (box[1] >= lo).all())
 
 
+# Rays go on past hits on a layer facing the other way at most this many times.
+_FACING_ROUNDS = 8
+
+
 def _face_segment(faces, vertex_segment):
     if not len(faces):
         return np.zeros(0, dtype=np.int64)
@@ -179,10 +183,9 @@ def _face_segment(faces, vertex_segment):
 
 
 def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, farthest=False, cull=False,
-                  facing=None):
-    """Each ray's first hit on each given layer (triangles of the ray's own segments only:
-    ``segment`` is (n,) or (n, 2) with -1 for no second one), combined over segments and
-    layers as the nearest or, with ``farthest``, the farthest of those hits.
+                  facing=None, skip=None):
+    """Each ray's nearest (or, with ``farthest``, farthest) hit on the given layers (triangles of
+    the ray's own segments only: ``segment`` is (n,) or (n, 2) with -1 for no second one).
 
     Returns (t, layer index, face index within that layer, rays traced, seconds tracing);
     layer -1 where nothing was hit. Layers whose segment bounds are out of the rays'
@@ -190,7 +193,8 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
     into the scene (for rays bunched along a few lines, such as hems). With ``facing`` =
     (global normals per layer, per-ray normals), a hit counts only where the layer's
     interpolated global normal points the ray's way: the far side of a skirt, met through
-    the gap between the legs, is not in front of the near side.
+    the gap between the legs, is not in front of the near side: rays go on past such hits.
+    Rays where ``skip`` (bool per ray, or None) holds are not traced.
     """
     n = len(origins)
     best_t = np.full(n, -np.inf if farthest else np.inf)
@@ -199,6 +203,8 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
     rays = 0
     trace_s = 0.0
     segs = np.asarray(segment).reshape(n, -1)  # a second column: the border segment, -1 for none
+    if skip is not None:
+        segs = np.where(skip[:, None], -1, segs)
     for s in np.unique(segs[segs >= 0]):
         idx = np.flatnonzero((segs == s).any(1))
         reach = max_dist[idx, None]
@@ -212,21 +218,40 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
             if found is None:
                 continue
             scene, ids = found
-            t0 = time.perf_counter()
-            hits = scene.intersect(origins[idx], directions[idx], max_dist=max_dist[idx])
-            trace_s += time.perf_counter() - t0
-            rays += len(idx)
-            closer = hits.hit & ((hits.t > best_t[idx]) if farthest else (hits.t < best_t[idx]))
-            if facing is not None and closer.any():
-                tri = ids[hits.face[closer]]
-                u, w = hits.bary[closer, 0], hits.bary[closer, 1]
-                nk = facing[0][k][scenes.faces[tri]]
-                n_hit = (1 - u - w)[:, None] * nk[:, 0] + u[:, None] * nk[:, 1] + w[:, None] * nk[:, 2]
-                closer[closer] = np.einsum("ij,ij->i", n_hit, facing[1][idx[closer]]) > 0
-            sel = idx[closer]
-            best_t[sel] = hits.t[closer]
-            best_layer[sel] = k
-            best_face[sel] = ids[hits.face[closer]]
+            scene.commit()  # the BVH build is not tracing
+            o, ray_dir, length = origins[idx], directions[idx], max_dist[idx]
+            if farthest:
+                # the farthest hit within reach is the first met coming back from the far end
+                # (a fold of one layer has two sheets in reach: the vertex goes behind both)
+                o, ray_dir = o + ray_dir * length[:, None], -ray_dir
+            step = 1e-6 * (length + float(norms((hi - lo)[None])[0]))  # past a hit, float32-safe
+            live, t_min = slice(None), np.zeros(len(idx))
+            for _ in range(_FACING_ROUNDS):
+                t0 = time.perf_counter()
+                hits = scene.intersect(o[live], ray_dir[live], max_dist=length[live],
+                                       min_dist=None if isinstance(live, slice) else t_min[live])
+                trace_s += time.perf_counter() - t0
+                rays += len(hits.t)
+                live = np.arange(len(idx)) if isinstance(live, slice) else live
+                live, t_hit, face = live[hits.hit], hits.t[hits.hit], ids[hits.face[hits.hit]]
+                if facing is not None and len(live):
+                    u, w = hits.bary[hits.hit, 0], hits.bary[hits.hit, 1]
+                    nk = facing[0][k][scenes.faces[face]]
+                    n_hit = (1 - u - w)[:, None] * nk[:, 0] + u[:, None] * nk[:, 1] + w[:, None] * nk[:, 2]
+                    ok = np.einsum("ij,ij->i", n_hit, facing[1][idx[live]]) > 0
+                else:
+                    ok = np.ones(len(live), dtype=bool)
+                t_ray = length[live] - t_hit if farthest else t_hit
+                better = ok & ((t_ray > best_t[idx[live]]) if farthest else (t_ray < best_t[idx[live]]))
+                sel = idx[live[better]]
+                best_t[sel] = t_ray[better]
+                best_layer[sel] = k
+                best_face[sel] = face[better]
+                # a hit facing the other way (the far side of a skirt) hides nothing: look past it
+                t_min[live] = t_hit + step[live]
+                live = live[~ok]
+                if not len(live):
+                    break
     return best_t, best_layer, best_face, rays, trace_s
 
 
@@ -543,7 +568,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
             # leaves exactly d. Behind the farthest higher layer within reach, not the nearest.
             t, layer, _, r, secs = _trace_layers(v + normals[k] * d, -normals[k], probe_len[k] + d, vseg2[k],
                                                  scenes, range(k + 1, n_g), farthest=True,
-                                                 facing=(normals, normals[k]))
+                                                 facing=(normals, normals[k]), skip=topo[k].loose)
             rays["push"] += r
             push_trace_s += secs
             hit = layer >= 0

@@ -67,6 +67,10 @@ class MeshTopology:
         hem = np.zeros(n_vertices, dtype=bool)
         hem[self.hem_edges.ravel()] = True
         self.hem_vertices = np.flatnonzero(hem)
+        used = np.zeros(n_vertices, dtype=bool)
+        used[faces.ravel()] = True
+        # vertices of no triangle (left behind by removed faces) cannot show: nothing moves them
+        self.loose = None if used.all() else ~used
         self._adjacency = None
         self._hem_loops = None
 

@@ -307,3 +307,56 @@ def test_a_joint_bulging_beside_the_probe_ray_still_holds_the_lower_layer_out():
     s = res.garments[0]
     assert brute_crossings(s.vertices, s.faces, body.vertices, body.faces) == 0
     assert res.stats["vertices_held_by_body"] > 0
+
+
+def _fold_scene(lower_z=0.029):
+    """A lower sheet 1 mm under a higher layer folded back on itself: its outer sheet at 3 cm
+    and, under the middle, the fold's inner sheet at 1.2 cm."""
+    body = slab_body()
+    low_v, low_f = sheet(n=31, z=lower_z)
+    out_v, out_f = sheet(size=1.1, n=34, z=0.03)
+    in_v, in_f = sheet(size=0.5, n=16, z=0.012)
+    fold = mesh(np.vstack([out_v, in_v]), np.vstack([out_f, in_f + len(out_v)]))
+    return body, mesh(low_v, low_f), fold
+
+
+def test_a_lower_layer_inside_a_fold_goes_behind_both_sheets():
+    body, low, fold = _fold_scene()
+    d = 0.002
+    res = resolve_layers(body, [low, fold], offset=d, probe_distance=0.05, boundary_pass=False)
+    v = res.garments[0].vertices
+    under = (np.abs(low.vertices[:, :2]) < 0.15).all(1)  # under the fold, away from its rim
+    # behind the farthest sheet of the layer within reach, not the nearest
+    np.testing.assert_allclose(v[under, 2], 0.012 - d, atol=1e-9)
+    assert v[:, 2].max() <= 0.03 - d + 1e-9  # everywhere behind the outer sheet
+    # resolving the result again finds nothing left to do
+    again = resolve_layers(body, res.garments, offset=d, probe_distance=0.05, boundary_pass=False)
+    assert max(float(np.abs(m).max()) for m in again.moved) < 1e-9
+    assert again.stats["faces_removed"] == 0
+
+
+def test_vertices_of_no_triangle_are_left_where_they_are():
+    body, low, fold = _fold_scene()
+    loose = np.array([[0.0, 0.0, 0.05], [0.3, 0.1, 0.02]])  # in front of the higher layer
+    with_loose = mesh(np.vstack([low.vertices, loose]), low.faces)
+    res = resolve_layers(body, [with_loose, fold], offset=0.002, probe_distance=0.05)
+    ref = resolve_layers(body, [low, fold], offset=0.002, probe_distance=0.05)
+    assert not res.moved[0][len(low.vertices):].any()
+    np.testing.assert_array_equal(res.moved[0][:len(low.vertices)], ref.moved[0])
+    assert res.stats["rays_push"] == ref.stats["rays_push"]
+
+
+def test_a_sheet_facing_the_other_way_does_not_stop_the_probe():
+    """Probe rays pass a higher layer's sheet whose global normal faces away (the far side of a
+    skirt seen through the legs) and still find the facing sheets beyond it."""
+    body = slab_body()
+    low_v, low_f = sheet(n=21, z=0.029)
+    parts = [sheet(size=1.1, n=23, z=z) for z in (0.03, 0.015, 0.005)]
+    high = mesh(np.vstack([p[0] for p in parts]),
+                np.vstack([p[1] + i * len(parts[0][0]) for i, p in enumerate(parts)]))
+    up = np.tile([0.0, 0.0, 1.0], (len(high.vertices), 1))
+    up[2 * len(parts[0][0]):] *= -1  # the bottom sheet faces down
+    d = 0.002
+    res = resolve_layers(body, [mesh(low_v, low_f), high], offset=d, probe_distance=0.05, boundary_pass=False,
+                         global_normals=[np.tile([0.0, 0.0, 1.0], (len(low_v), 1)), up])
+    np.testing.assert_allclose(res.garments[0].vertices[:, 2], 0.015 - d, atol=1e-9)
