@@ -9,7 +9,7 @@ import hashlib
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .correspondence import closest_point_on_triangles, incident_triangles, local_radius, vertex_normals
+from .correspondence import closest_point_on_triangles, incident_triangles, local_radius, surface_search, vertex_normals
 from .topology import topology_of
 
 _KEEP = 4
@@ -57,7 +57,7 @@ class BodyFacts:
     def search(self):
         """(kd-tree of the vertices, incident triangles per vertex) for nearest_on_surface."""
         if self._search is None:
-            self._search = (cKDTree(self.vertices), incident_triangles(self.faces, len(self.vertices), 8))
+            self._search = surface_search(self.vertices, self.faces, 8)
         return self._search
 
     def part_radius(self, segment, count: int) -> np.ndarray:

@@ -100,6 +100,18 @@ def incident_triangles(faces: np.ndarray, n_vertices: int, width: int) -> np.nda
     return table
 
 
+def surface_search(vertices, faces, ring_width: int = 8):
+    """(kd-tree over the vertices some triangle uses, their incident triangles row by row) for
+    nearest_on_surface. A vertex of no triangle stays out: as a nearest vertex it would offer no
+    candidate at all."""
+    used = np.zeros(len(vertices), dtype=bool)
+    used[np.asarray(faces).ravel()] = True
+    incident = incident_triangles(faces, len(vertices), ring_width)
+    if used.all():
+        return cKDTree(vertices), incident
+    return cKDTree(vertices[used]), incident[used]
+
+
 def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
                        chunk: int = 4096, search=None) -> BodyCorrespondence:
     """Nearest point on a triangle surface for each point.
@@ -112,13 +124,13 @@ def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
     n = len(points)
     if not n:
         return BodyCorrespondence(np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0))
-    k = min(k, len(vertices))
-    # search: (kd-tree of ``vertices``, incident_triangles of width ring_width) made earlier
-    tree, incident = search if search is not None else (cKDTree(vertices), None)
+    # search: surface_search(vertices, faces, ring_width) made earlier
+    if search is None or search[1].shape[1] != ring_width:
+        search = surface_search(vertices, faces, ring_width)
+    tree, incident = search
+    k = min(k, tree.n)
     _, near = tree.query(points, k=k, workers=-1)
     near = near.reshape(n, -1)
-    if incident is None or incident.shape[1] != ring_width:
-        incident = incident_triangles(faces, len(vertices), ring_width)
     best_t = np.zeros(n, dtype=np.int64)
     best_w = np.zeros((n, 3))
     best_d = np.zeros(n)

@@ -28,6 +28,19 @@ def test_nearest_point_matches_trimesh_proximity():
     assert np.allclose(ours.bary.sum(1), 1) and (ours.bary >= -1e-12).all()
 
 
+def test_vertices_of_no_triangle_do_not_hide_the_surface():
+    """Loose body vertices (left over by modelling) sit right at the query points; the answer is
+    still the nearest point on the triangles."""
+    v, f = bumpy_body()
+    rng = np.random.default_rng(2)
+    pts = rng.normal(size=(300, 3))
+    pts *= 1.2 / np.linalg.norm(pts, axis=1, keepdims=True)
+    loose = np.vstack([pts + 1e-4, pts - 1e-4])  # the two nearest vertices of every point
+    ours = nearest_on_surface(pts, np.vstack([v, loose]), f)
+    _, ref_d, _ = trimesh.proximity.closest_point(trimesh.Trimesh(v, f, process=False), pts)
+    np.testing.assert_allclose(ours.distance, ref_d, atol=1e-9)
+
+
 def test_closest_point_regions_against_dense_sampling():
     rng = np.random.default_rng(2)
     a, b, c = (rng.normal(size=(200, 3)) for _ in range(3))
