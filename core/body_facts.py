@@ -55,7 +55,7 @@ class BodyFacts:
 
     @property
     def search(self):
-        """(kd-tree of the vertices, incident triangles per vertex) for nearest_on_surface."""
+        """correspondence.surface_search of the body, for nearest_on_surface."""
         if self._search is None:
             self._search = surface_search(self.vertices, self.faces, 8)
         return self._search

@@ -13,6 +13,7 @@ from scipy.spatial import cKDTree
 
 from .parallel import map_chunks
 from .rays import RayScene
+from .topology import used_vertices
 
 
 @dataclass
@@ -104,8 +105,7 @@ def surface_search(vertices, faces, ring_width: int = 8):
     """(kd-tree over the vertices some triangle uses, their incident triangles row by row) for
     nearest_on_surface. A vertex of no triangle stays out: as a nearest vertex it would offer no
     candidate at all."""
-    used = np.zeros(len(vertices), dtype=bool)
-    used[np.asarray(faces).ravel()] = True
+    used = used_vertices(faces, len(vertices))
     incident = incident_triangles(faces, len(vertices), ring_width)
     if used.all():
         return cKDTree(vertices), incident

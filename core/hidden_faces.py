@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from .rays import RayScene
+from .topology import used_vertices
 from .vectors import norms
 
 # Past a hit the next search starts this far on (a fraction of the edge plus the scene's
@@ -37,8 +38,7 @@ def _edge_faces(faces, edges, crossed, n_vertices):
 
 
 def _bounds(vertices, faces):
-    used = np.zeros(len(vertices), dtype=bool)
-    used[faces.ravel()] = True
+    used = used_vertices(faces, len(vertices))
     v = vertices if used.all() else vertices[used]
     return v.min(0), v.max(0)
 

@@ -24,7 +24,7 @@ from .correspondence import (
 from .hidden_faces import crossing_faces
 from .rays import RayScene
 from .segmentation import get_scheme, hull_normals, is_skirt, skirt_segments
-from .topology import ring_distance, topology_of, vertex_adjacency
+from .topology import ring_distance, topology_of, used_vertices, vertex_adjacency
 from .vectors import norms
 
 
@@ -78,9 +78,7 @@ class _LayerLayout:
     def corners(self, segment):
         """Vertices of the segment's triangles: their box is the triangles' box."""
         if segment not in self._corners:
-            used = np.zeros(self.n_vertices, dtype=bool)
-            used[self.faces[self.ids(segment)].ravel()] = True
-            self._corners[segment] = np.flatnonzero(used)
+            self._corners[segment] = np.flatnonzero(used_vertices(self.faces[self.ids(segment)], self.n_vertices))
         return self._corners[segment]
 
 

@@ -16,6 +16,7 @@ import numpy as np
 
 from . import embree_direct
 from .parallel import map_chunks, thread_count
+from .topology import used_vertices
 from .vectors import norms
 
 try:
@@ -156,9 +157,7 @@ class RayScene:
         if in_place:
             self._mesh.move(v - self._center)
             return
-        used = np.zeros(len(v), dtype=bool)  # a mask, not a sort: builds come often
-        used[f.ravel()] = True
-        self._used = np.flatnonzero(used)
+        self._used = np.flatnonzero(used_vertices(f, len(v)))
         # Re-centre before float32 so precision follows the scene's size, not its distance from 0.
         self._center = 0.5 * (v[self._used].min(0) + v[self._used].max(0)) if len(f) else np.zeros(3)
         self._scene = None

@@ -22,6 +22,13 @@ def edges_with_counts(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.column_stack([keys // stride, keys % stride]), counts
 
 
+def used_vertices(faces: np.ndarray, n_vertices: int) -> np.ndarray:
+    """Bool mask: vertices some triangle uses (a mask, not a unique: it runs on every scene build)."""
+    used = np.zeros(n_vertices, dtype=bool)
+    used[np.asarray(faces).ravel()] = True
+    return used
+
+
 def boundary_vertices(faces: np.ndarray, n_vertices: int) -> np.ndarray:
     """Bool mask: vertices on an edge that only one triangle uses (hems, cuffs, necklines)."""
     e, count = edges_with_counts(faces)
@@ -67,8 +74,7 @@ class MeshTopology:
         hem = np.zeros(n_vertices, dtype=bool)
         hem[self.hem_edges.ravel()] = True
         self.hem_vertices = np.flatnonzero(hem)
-        used = np.zeros(n_vertices, dtype=bool)
-        used[faces.ravel()] = True
+        used = used_vertices(faces, n_vertices)
         # vertices of no triangle (left behind by removed faces) cannot show: nothing moves them
         self.loose = None if used.all() else ~used
         self._adjacency = None
