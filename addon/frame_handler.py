@@ -6,7 +6,7 @@ import json
 import bpy
 from bpy.app.handlers import persistent
 
-from . import layer_resolve
+from . import layer_resolve, results
 
 _busy = False
 
@@ -29,21 +29,31 @@ def on_frame_change(scene, _depsgraph=None):
         _busy = False
 
 
-def unbaked_cloth(objects):
-    """Names of objects whose cloth cache is not baked."""
-    return [o.name for o in objects for m in o.modifiers
-            if m.type == "CLOTH" and m.show_viewport and not m.point_cache.is_baked]
+def restarting_cloth(scene, objects):
+    """Names of garments whose unbaked cloth would start over if DeformRT's result were added
+    (or shown again) now: changing a garment's modifiers resets an unbaked cache. Reading the
+    simulated shape and writing new corrections later do not, so a simulation played from its
+    first frame is corrected live."""
+    out = []
+    for o in objects:
+        mod = results.result_modifier(o)
+        if mod is not None and mod.show_viewport and mod.show_render:
+            continue
+        for m in o.modifiers:
+            if (m.type == "CLOTH" and m.show_viewport and not m.point_cache.is_baked
+                    and scene.frame_current > m.point_cache.frame_start):
+                out.append(o.name)
+    return out
 
 
 def correct_frame(scene):
     """The layering of the current frame (what the handler runs); returns its summary."""
     _, garments = layer_resolve.layered_objects(scene)
-    unbaked = unbaked_cloth(garments)
-    if unbaked:
-        # reading the simulated shape switches DeformRT's modifier, which resets an unbaked cache
+    restarting = restarting_cloth(scene, garments)
+    if restarting:
         raise layer_resolve.LayeringInputError(
-            f"{', '.join(unbaked)}: bake the cloth first (Physics > Cache > Bake All Dynamics); "
-            "an unbaked simulation restarts whenever DeformRT reads it")
+            f"{', '.join(restarting)}: bake the cloth first (Physics > Cache > Bake All Dynamics) or turn this "
+            "on at the simulation's first frame; adding DeformRT's result restarts an unbaked simulation")
     return layer_resolve.resolve_scene(scene, reuse_correspondence=True)
 
 

@@ -10,9 +10,14 @@ import bpy
 
 GROUP_NAME = "DeformRT Result"
 # Bump when the node layout changes: files saved with an older group get it rebuilt.
-GROUP_VERSION = 1
+GROUP_VERSION = 2
 OFFSET_ATTRIBUTE = "deformrt_offset"
 HIDDEN_ATTRIBUTE = "deformrt_hidden"
+# True on the data object's points: pass the stack's own geometry through. A flag in the data
+# rather than the modifier's visibility or an input of its own, because the garment then
+# evaluates again as a dependent of the data (about 1 ms) and not as an edited object, which
+# makes its cloth modifier start over (about 5 ms a garment). Absent (older data): shown.
+BYPASS_ATTRIBUTE = "deformrt_bypass"
 DATA_SOCKET = "Result Data"
 
 
@@ -29,7 +34,7 @@ def _build(group):
     links.new(inputs.outputs[DATA_SOCKET], info.inputs["Object"])
     index = nodes.new("GeometryNodeInputIndex")
 
-    def sampled(attribute, data_type):
+    def sampled(attribute, data_type, per_point=True):
         named = nodes.new("GeometryNodeInputNamedAttribute")
         named.data_type = data_type
         named.inputs["Name"].default_value = attribute
@@ -37,8 +42,9 @@ def _build(group):
         sample.data_type, sample.domain = data_type, "POINT"
         links.new(info.outputs["Geometry"], sample.inputs["Geometry"])
         links.new(named.outputs["Attribute"], sample.inputs["Value"])
-        links.new(index.outputs["Index"], sample.inputs["Index"])
-        return sample.outputs["Value"]
+        if per_point:
+            links.new(index.outputs["Index"], sample.inputs["Index"])
+        return sample.outputs["Value"]  # else point 0's: one value, as a switch between geometries needs
 
     move = nodes.new("GeometryNodeSetPosition")
     links.new(inputs.outputs["Geometry"], move.inputs["Geometry"])
@@ -47,8 +53,13 @@ def _build(group):
     drop.domain = "FACE"
     links.new(move.outputs["Geometry"], drop.inputs["Geometry"])
     links.new(sampled(HIDDEN_ATTRIBUTE, "BOOLEAN"), drop.inputs["Selection"])
-    links.new(drop.outputs["Geometry"], output.inputs["Geometry"])
-    for i, node in enumerate((inputs, info, index, move, drop, output)):
+    switch = nodes.new("GeometryNodeSwitch")
+    switch.input_type = "GEOMETRY"
+    links.new(sampled(BYPASS_ATTRIBUTE, "BOOLEAN", per_point=False), switch.inputs["Switch"])
+    links.new(drop.outputs["Geometry"], switch.inputs["False"])
+    links.new(inputs.outputs["Geometry"], switch.inputs["True"])
+    links.new(switch.outputs["Output"], output.inputs["Geometry"])
+    for i, node in enumerate((inputs, info, index, move, drop, switch, output)):
         node.location = (220 * i, 0)
     group["deformrt_version"] = GROUP_VERSION
 
@@ -59,7 +70,19 @@ def node_group():
     if group is None or group.bl_idname != "GeometryNodeTree":
         group = bpy.data.node_groups.new(GROUP_NAME, "GeometryNodeTree")
     if group.get("deformrt_version") != GROUP_VERSION:
+        # a rebuilt interface gets new socket identifiers: the garments' data links move over
+        try:
+            old = data_socket_id(group)
+        except RuntimeError:
+            old = None
+        users = [(o, m, m.get(old)) for o in bpy.data.objects for m in getattr(o, "modifiers", ())
+                 if old is not None and m.type == "NODES" and m.node_group == group]
         _build(group)
+        new = data_socket_id(group)
+        for obj, mod, data in users:
+            if data is not None:
+                mod[new] = data
+                obj.update_tag()
     return group
 
 

@@ -31,15 +31,29 @@ def data_object(obj):
 
 
 def set_enabled(obj, enabled: bool) -> bool:
-    """Show or bypass the garment's result (to read what its stack produces on its own).
-    Returns whether it was shown before."""
+    """Show or bypass the garment's result (to read what its stack produces on its own),
+    leaving the modifier's visibility to the user. Returns whether it was shown before."""
     mod = result_modifier(obj)
-    if mod is None:
+    data = data_object(obj)
+    if mod is None or not mod.show_viewport or data is None:
         return False
-    before = mod.show_viewport
-    if before != enabled or mod.show_render != enabled:  # setting it at all makes Blender evaluate again
-        mod.show_viewport = mod.show_render = enabled
+    result_nodes.node_group()  # a file's older group knows no bypass: rebuilt first
+    attr = data.data.attributes.get(result_nodes.BYPASS_ATTRIBUTE)
+    before = not (attr is not None and len(attr.data) and attr.data[0].value)
+    if before != enabled:
+        _set_bypass(data.data, not enabled)
+        data.data.update()  # the garment evaluates again as the data's dependent
     return before
+
+
+def _set_bypass(mesh, bypass: bool):
+    name = result_nodes.BYPASS_ATTRIBUTE
+    attr = mesh.attributes.get(name)
+    if attr is None or attr.data_type != "BOOLEAN" or attr.domain != "POINT":
+        if attr is not None:
+            mesh.attributes.remove(attr)
+        attr = mesh.attributes.new(name, "BOOLEAN", "POINT")
+    attr.data.foreach_set("value", np.full(len(mesh.vertices), bypass, dtype=bool))
 
 
 def _hidden_collection(scene, name):
@@ -73,7 +87,8 @@ def _fill_data_mesh(mesh, offsets, hidden):
     hid = np.zeros(count, dtype=bool)
     hid[:len(hidden)] = hidden
     mesh.attributes[result_nodes.HIDDEN_ATTRIBUTE].data.foreach_set("value", hid)
-    mesh.update()
+    _set_bypass(mesh, False)
+    mesh.update()  # the garment's result follows as the data's dependent
 
 
 def write(scene, obj, offsets_local, hidden_faces, stats=None) -> None:
@@ -98,13 +113,17 @@ def write(scene, obj, offsets_local, hidden_faces, stats=None) -> None:
     _fill_data_mesh(data.data, offsets_local, hidden_faces)
     if stats:
         data["deformrt_stats"] = stats
+    changed = mod is None or mod.get(key) != data or not (mod.show_viewport and mod.show_render)
     if mod is None:
         mod = obj.modifiers.new(MODIFIER_NAME, "NODES")
         mod.node_group = group
         mod.show_expanded = False
-    mod[key] = data
-    mod.show_viewport = mod.show_render = True
-    obj.update_tag()
+    if changed:
+        # a new modifier or data object changes what the garment depends on; new numbers in the
+        # same data do not need the garment tagged (which would start its cloth modifier over)
+        mod[key] = data
+        mod.show_viewport = mod.show_render = True
+        obj.update_tag()
 
 
 def read_offsets(obj, n_vertices):

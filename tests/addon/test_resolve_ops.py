@@ -96,6 +96,31 @@ def test_resolving_twice_gives_the_same_result_and_clear_removes_every_trace(ext
     assert not any(m.type == "NODES" for g in garments for m in g.modifiers)
 
 
+def test_reading_under_a_result_gives_the_fitted_garment_and_an_older_files_result_still_shows(extension, tubes):
+    body, garments = tubes
+    layer_resolve, result_nodes = sub(extension, "addon.layer_resolve"), sub(extension, "addon.result_nodes")
+    fitted = [evaluated(g) for g in garments]
+    bpy.ops.deformrt.resolve_layers()
+    shown = [evaluated(g) for g in garments]
+    with layer_resolve.results_bypassed(garments):
+        for f, g in zip(fitted, garments, strict=True):
+            np.testing.assert_array_equal(evaluated(g)[0], f[0])
+            np.testing.assert_array_equal(evaluated(g)[1], f[1])
+    for s, g in zip(shown, garments, strict=True):  # and back, with the user's modifier switches untouched
+        np.testing.assert_array_equal(evaluated(g)[0], s[0])
+        assert all(m.show_viewport and m.show_render for m in g.modifiers)
+    # a file saved before the bypass flag: its group is rebuilt when next used, its data has no flag
+    data = [sub(extension, "addon.results").data_object(g).data for g in garments]
+    for mesh in data:
+        mesh.attributes.remove(mesh.attributes[result_nodes.BYPASS_ATTRIBUTE])
+        mesh.update()
+    bpy.data.node_groups[result_nodes.GROUP_NAME]["deformrt_version"] = 1
+    with layer_resolve.results_bypassed(garments):
+        np.testing.assert_array_equal(evaluated(garments[0])[0], fitted[0][0])
+    np.testing.assert_array_equal(evaluated(garments[0])[0], shown[0][0])
+    assert bpy.data.node_groups[result_nodes.GROUP_NAME]["deformrt_version"] == result_nodes.GROUP_VERSION
+
+
 def test_modifiers_on_the_inputs_count(extension, tubes):
     body, (shirt, jacket) = tubes
     # a subdivided jacket and a shirt moved by its object transform: the resolve sees both
@@ -384,11 +409,24 @@ def test_falling_sheets_are_corrected_frame_by_frame_and_switching_off_gives_the
         scene.frame_set(f)
         raw[f] = [evaluated(o)[0].copy() for o in made]
     assert _garment_overlaps(made) > 0  # at frame 24 the sheets lie through each other on the stage
-    # an unbaked simulation restarts when DeformRT reads it: the handler says so and stops
+    # adding DeformRT's result mid-way would restart an unbaked simulation: the handler says so and stops
     scene.deformrt.resolve_on_frame_change = True
     scene.frame_set(23)
     assert not scene.deformrt.resolve_on_frame_change
     assert "bake the cloth first" in json.loads(scene.deformrt.last_report)["message"]
+    # from the first frame it corrects the unbaked simulation live, and reading the simulated
+    # shape every frame leaves the simulation as it was without DeformRT
+    scene.frame_set(1)
+    scene.deformrt.resolve_on_frame_change = True
+    for f in range(1, 25):
+        scene.frame_set(f)
+        with sub(extension, "addon.layer_resolve").results_bypassed(made):
+            for o, v in zip(made, raw[f], strict=True):
+                np.testing.assert_allclose(evaluated(o)[0], v, atol=1e-6, err_msg=f"frame {f}")
+    assert scene.deformrt.resolve_on_frame_change
+    assert _garment_overlaps(made) == 0
+    scene.deformrt.resolve_on_frame_change = False
+    scene.frame_set(1)
     assert bpy.ops.ptcache.bake_all(bake=True) == {"FINISHED"}
     scene.deformrt.resolve_on_frame_change = True
     for f in (12, 18, 24):
