@@ -43,11 +43,12 @@ def _bounds(vertices, faces):
     return v.min(0), v.max(0)
 
 
-def crossing_faces(vertices, faces, edges) -> tuple[list, int]:
+def crossing_faces(vertices, faces, edges, scenes=None) -> tuple[list, int]:
     """Per layer (lists ordered inner to outer; ``edges`` as sorted vertex pairs), a bool mask of
     its triangles that a higher layer crosses: the triangles an edge of a higher layer passes
     through, and the triangles owning an edge that passes through a higher layer.
-    Returns (masks, rays traced)."""
+    ``scenes``: per layer a RayScene already built over exactly these faces and vertices, or
+    None (built here). Returns (masks, rays traced)."""
     removed = [np.zeros(len(f), dtype=bool) for f in faces]
     present = [k for k in range(len(faces)) if len(faces[k])]
     if len(present) < 2:
@@ -71,7 +72,7 @@ def crossing_faces(vertices, faces, edges) -> tuple[list, int]:
             picks.append(np.flatnonzero(near))
         if not sum(len(p) for p in picks):
             continue
-        scene = RayScene(vertices[j], faces[j])
+        scene = scenes[j] if scenes is not None and scenes[j] is not None else RayScene(vertices[j], faces[j])
         o = np.vstack([start[k][p] for k, p in zip(others, picks, strict=True)])
         d = np.vstack([vec[k][p] for k, p in zip(others, picks, strict=True)])
         tmax = np.concatenate([length[k][p] for k, p in zip(others, picks, strict=True)])
@@ -92,6 +93,9 @@ def crossing_faces(vertices, faces, edges) -> tuple[list, int]:
             for k in np.unique(owner[live[up]]):
                 crossed[k][index[live[up & (owner[live] == k)]]] = True
             removed[j][face[~up]] = True  # a higher layer's edge goes through this triangle
+            # one hit hides an edge's own triangles; a higher layer's edge goes on to every
+            # triangle of this layer it passes through
+            live, t = live[~up], t[~up]
             t_min[live] = t + step[live]
     for k in present:
         if crossed[k].any():

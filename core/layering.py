@@ -93,6 +93,10 @@ class _SegmentScenes:
         self._face_box = None
         self.built = 0
 
+    def built_full(self):
+        """The scene over all of the layer's triangles if one was built, else None."""
+        return self._scenes.get("all")
+
     def full(self):
         """One scene over all of the layer's triangles."""
         if "all" not in self._scenes:
@@ -583,7 +587,9 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     t0 = time.perf_counter()
     removed = [np.zeros(len(f), dtype=bool) for f in faces]
     if params.get("remove_hidden", True):
-        removed, rays["hidden"] = crossing_faces(verts, faces, edges)
+        # a layer's last scene is over where it ended up (each move builds anew): traced again here
+        built = [s.built_full() if s.vertices is v else None for s, v in zip(scenes, verts, strict=True)]
+        removed, rays["hidden"] = crossing_faces(verts, faces, edges, built)
     timings["hidden_faces_s"] = time.perf_counter() - t0
 
     out, moved = [], []
