@@ -106,21 +106,51 @@ def main(argv=None):
 
 
 def plot(series, frames):
-    """A line per case of correction milliseconds against frame, as a small PNG."""
+    """A line per case of correction milliseconds against frame, as a small PNG with its axes
+    and a legend of the cases (sheets x triangles per sheet)."""
     from bench.jellyfish import write_png
+    from bench.png_text import draw_text, text_width
 
-    w, h, pad = 640, 320, 30
+    w, h = 760, 360
+    left, right, top_pad, bottom = 60, 150, 20, 40
     img = np.full((h, w, 3), 255, np.uint8)
     top = max(float(c.max()) for c in series.values()) * 1000 * 1.1
-    colours = [(200, 40, 30), (30, 100, 200), (220, 170, 30), (40, 150, 60), (120, 60, 160), (90, 90, 90)]
-    img[h - pad, pad:w - pad] = 0
-    img[pad:h - pad, pad] = 0
-    for k, ((_layers, _n), c) in enumerate(sorted(series.items())):
-        x = pad + (np.arange(len(c)) / max(len(c) - 1, 1)) * (w - 2 * pad - 1)
-        y = (h - pad) - (1000 * c / top) * (h - 2 * pad)
-        xs = np.linspace(x[0], x[-1], 4 * len(c) * 4)
+    step = 10 ** np.floor(np.log10(top / 2))
+    tick = step * (5 if top / step > 10 else 2 if top / step > 5 else 1)
+    # a hue per sheet count, darker as the sheets get finer
+    hues = [np.array(c, float) for c in ((210, 50, 30), (30, 90, 210), (30, 140, 50), (130, 60, 170))]
+    counts = sorted({key[0] for key in series})
+    sizes = sorted({key[1] for key in series})
+
+    def colour_of(layers, n):
+        fade = 0.6 * (1 - sizes.index(n) / max(len(sizes) - 1, 1))
+        return tuple(int(v) for v in (1 - fade) * hues[counts.index(layers) % len(hues)] + fade * 255)
+
+    x0, x1, y0, y1 = left, w - right, h - bottom, top_pad
+    img[y0, x0:x1] = 0
+    img[y1:y0 + 1, x0] = 0
+    for v in np.arange(0.0, top, tick):  # y ticks in milliseconds
+        y = int(round(y0 - v / top * (y0 - y1)))
+        img[y, x0 - 4:x0] = 0
+        img[y, x0 + 1:x1:4] = 215
+        label = f"{v:.0f}"
+        draw_text(img, x0 - 8 - text_width(label), y - 5, label)
+    draw_text(img, 8, y1, "ms")
+    for f in sorted({1, frames // 2, frames}):  # x ticks in frames
+        x = int(round(x0 + (f - 1) / max(frames - 1, 1) * (x1 - x0 - 1)))
+        img[y0:y0 + 4, x] = 0
+        draw_text(img, x - text_width(str(f)) // 2, y0 + 8, str(f))
+    draw_text(img, (x0 + x1) // 2 - text_width("frame") // 2, y0 + 24, "frame")
+    for k, ((layers, n), c) in enumerate(sorted(series.items())):
+        colour = colour_of(layers, n)
+        x = x0 + 1 + (np.arange(len(c)) / max(len(c) - 1, 1)) * (x1 - x0 - 2)
+        y = y0 - (1000 * c / top) * (y0 - y1)
+        xs = np.linspace(x[0], x[-1], 16 * len(c))
         ys = np.interp(xs, x, y)
-        img[np.clip(ys.astype(int), 0, h - 1), np.clip(xs.astype(int), 0, w - 1)] = colours[k % len(colours)]
+        img[np.clip(ys.astype(int), 0, h - 1), np.clip(xs.astype(int), 0, w - 1)] = colour
+        ly = y1 + 14 * k
+        img[ly + 4:ly + 6, x1 + 10:x1 + 26] = colour
+        draw_text(img, x1 + 32, ly, f"{layers}x{n}", colour)
     path = REPORT.parent / "img" / "cloth_table.png"
     write_png(path, img)
 
