@@ -109,7 +109,7 @@ def body_probes(objects, layers, given=None, parts=None):
     if body is None:
         return None
     facts = body_facts(*objects[body])  # kept: the next frame of a still body asks again
-    radius, tree = facts.radius, facts.search[0]
+    radius, search = facts.radius, facts.search
     if parts is not None:
         parts = np.asarray(parts, np.int64)
         count = max(parts.max(initial=-1) + 1, 0 if given is None else len(given))
@@ -119,7 +119,7 @@ def body_probes(objects, layers, given=None, parts=None):
         if given is not None:
             per_part = np.where(np.isnan(given), per_part, given)
         radius = per_part[parts]
-    return [None if lay is None else radius[tree.query(v, workers=-1)[1]]
+    return [None if lay is None else radius[search.vertex_ids[search.tree.query(v, workers=-1)[1]]]
             for (v, _), lay in zip(objects, layers, strict=True)]
 
 

@@ -7,6 +7,7 @@ rest; a posed body's normals are then read through it without searching again.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -14,6 +15,7 @@ from scipy.spatial import cKDTree
 from .parallel import map_chunks
 from .rays import RayScene
 from .topology import used_vertices
+from .vectors import norms
 
 
 @dataclass
@@ -48,44 +50,66 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return _unit(out)
 
 
-def closest_point_on_triangles(p, a, b, c):
-    """Closest point to p on triangle abc, all (n,3); returns barycentric weights (n,3).
+def triangle_table(a, b, c, dtype=np.float64) -> np.ndarray:
+    """What a closest-point test needs of each triangle abc, worked out once: corner a, edges
+    ab and ac, the unit normal, |ab|^2, |ac|^2, ab.ac and 1/det of the in-plane system
+    (0 for a degenerate triangle). (n, 16)."""
+    ab, ac = b - a, c - a
+    bb, cc, bc = (np.einsum("ij,ij->i", x, y) for x, y in ((ab, ab), (ac, ac), (ab, ac)))
+    det = bb * cc - bc * bc
+    normal = _unit(np.cross(ab, ac))
+    # det is |ab x ac|^2: below a relative 1e-12 the in-plane solve is noise
+    flat = det <= 1e-12 * bb * cc
+    inv = np.divide(1.0, det, out=np.zeros_like(det), where=~flat)
+    return np.column_stack([a, ab, ac, normal, bb, cc, bc, inv]).astype(dtype, copy=False)
 
-    Ericson, Real-Time Collision Detection, 5.1.5, vectorised: the Voronoi region tests run
-    in his order and ``np.select`` takes the first that holds. Degenerate triangles fall into
-    the edge and vertex regions and stay finite.
+
+def closest_on_table(p, table, bary: bool = True):
+    """Squared distance from each p to its row of ``triangle_table`` and, with ``bary``, the
+    barycentric weights (n, 3) of the closest point.
+
+    Everything comes from four dot products per pair: a point whose projection falls inside
+    is as far as the plane; any other is nearest to one of the three edges, each a clamped
+    segment projection. Degenerate triangles have no inside and fall to their edges; a
+    triangle of one point to its corner a.
     """
-    ab, ac, ap = b - a, c - a, p - a
-    d1 = np.einsum("ij,ij->i", ab, ap)
-    d2 = np.einsum("ij,ij->i", ac, ap)
-    bp = p - b
-    d3 = np.einsum("ij,ij->i", ab, bp)
-    d4 = np.einsum("ij,ij->i", ac, bp)
-    cp = p - c
-    d5 = np.einsum("ij,ij->i", ab, cp)
-    d6 = np.einsum("ij,ij->i", ac, cp)
-    va = d3 * d6 - d5 * d4
-    vb = d5 * d2 - d1 * d6
-    vc = d1 * d4 - d3 * d2
+    ap = p - table[:, 0:3]
+    d1 = np.einsum("ij,ij->i", ap, table[:, 3:6])
+    d2 = np.einsum("ij,ij->i", ap, table[:, 6:9])
+    pp = np.einsum("ij,ij->i", ap, ap)
+    pn = np.einsum("ij,ij->i", ap, table[:, 9:12])
+    bb, cc, bc, inv = table[:, 12], table[:, 13], table[:, 14], table[:, 15]
+    s = (cc * d1 - bc * d2) * inv
+    t = (bb * d2 - bc * d1) * inv
+    inside = (s >= 0) & (t >= 0) & (s + t <= 1) & (inv > 0)
+    ee = bb + cc - 2 * bc  # |bc|^2
+    be = d2 - d1 - bc + bb  # (p - b).(c - b)
     with np.errstate(divide="ignore", invalid="ignore"):
-        t_ab = d1 / (d1 - d3)
-        t_ac = d2 / (d2 - d6)
-        t_bc = (d4 - d3) / ((d4 - d3) + (d5 - d6))
-        denom = va + vb + vc
-        v_in, w_in = vb / denom, vc / denom
-    regions = [(d1 <= 0) & (d2 <= 0),  # vertex a
-               (d3 >= 0) & (d4 <= d3),  # vertex b
-               (d6 >= 0) & (d5 <= d6),  # vertex c
-               (vc <= 0) & (d1 >= 0) & (d3 <= 0),  # edge ab
-               (vb <= 0) & (d2 >= 0) & (d6 <= 0),  # edge ac
-               (va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0)]  # edge bc
-    zero = 0.0
-    wb = np.select(regions, [zero, 1.0, zero, t_ab, zero, 1 - t_bc], v_in)
-    wc = np.select(regions, [zero, zero, 1.0, zero, t_ac, t_bc], w_in)
-    w = np.column_stack([1 - wb - wc, wb, wc])
-    bad = ~np.isfinite(w).all(1)
-    w[bad] = (1.0, 0.0, 0.0)
-    return w
+        t_ab = np.clip(d1 / bb, 0, 1)
+        t_ac = np.clip(d2 / cc, 0, 1)
+        t_bc = np.clip(be / ee, 0, 1)
+    # |p - (a + t e)|^2 = |ap|^2 - t (2 ap.e - t |e|^2), from corner b for edge bc
+    e_ab = pp - t_ab * (2 * d1 - t_ab * bb)
+    e_ac = pp - t_ac * (2 * d2 - t_ac * cc)
+    e_bc = (pp - 2 * d1 + bb) - t_bc * (2 * be - t_bc * ee)
+    # fmin passes over NaN: an edge of zero length, whose corners are another edge's
+    d = np.where(inside, pn * pn, np.fmin(np.fmin(e_ab, e_ac), e_bc))
+    lone = np.isnan(d)
+    d[lone] = pp[lone]  # all three corners at a
+    if not bary:
+        return d
+    edges = np.column_stack([e_ab, e_ac, e_bc])
+    edges[np.isnan(edges)] = np.inf
+    edge = np.argmin(edges, axis=1)
+    wb = np.select([inside, edge == 0, edge == 1], [s, t_ab, 0.0], 1 - t_bc)
+    wc = np.select([inside, edge == 0, edge == 1], [t, 0.0, t_ac], t_bc)
+    wb[lone] = wc[lone] = 0.0
+    return d, np.column_stack([1 - wb - wc, wb, wc])
+
+
+def closest_point_on_triangles(p, a, b, c):
+    """Closest point to p on triangle abc, all (n,3); returns barycentric weights (n,3)."""
+    return closest_on_table(p, triangle_table(a, b, c))[1]
 
 
 def incident_triangles(faces: np.ndarray, n_vertices: int, width: int) -> np.ndarray:
@@ -101,19 +125,32 @@ def incident_triangles(faces: np.ndarray, n_vertices: int, width: int) -> np.nda
     return table
 
 
-def surface_search(vertices, faces, ring_width: int = 8):
-    """(kd-tree over the vertices some triangle uses, their incident triangles row by row) for
-    nearest_on_surface. A vertex of no triangle stays out: as a nearest vertex it would offer no
-    candidate at all."""
-    used = used_vertices(faces, len(vertices))
-    incident = incident_triangles(faces, len(vertices), ring_width)
-    if used.all():
-        return cKDTree(vertices), incident
-    return cKDTree(vertices[used]), incident[used]
+class SurfaceSearch(NamedTuple):
+    """What nearest_on_surface needs of a surface, made once per surface."""
+
+    tree: cKDTree  # over the vertices some triangle uses
+    vertex_ids: np.ndarray  # the surface vertex of each tree point
+    incident: np.ndarray  # (tree points, ring_width) incident triangles, -1 padded
+    table: np.ndarray  # float32 triangle_table about ``centre``: the candidates' first pick
+    centre: np.ndarray
+
+
+def surface_search(vertices, faces, ring_width: int = 8) -> SurfaceSearch:
+    """The search structure of nearest_on_surface. A vertex of no triangle stays out: as a
+    nearest vertex it would offer no candidate at all."""
+    vertices = np.asarray(vertices, dtype=np.float64)
+    faces = np.asarray(faces, dtype=np.int64)
+    ids = np.flatnonzero(used_vertices(faces, len(vertices)))
+    incident = incident_triangles(faces, len(vertices), ring_width)[ids]
+    # float32 about the surface's centre, so precision follows its size
+    centre = 0.5 * (vertices.min(0) + vertices.max(0)) if len(vertices) else np.zeros(3)
+    tri = vertices[faces] - centre
+    table = triangle_table(tri[:, 0], tri[:, 1], tri[:, 2], np.float32)
+    return SurfaceSearch(cKDTree(vertices[ids]), ids, incident, table, centre)
 
 
 def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
-                       chunk: int = 4096, search=None) -> BodyCorrespondence:
+                       chunk: int = 4096, search: SurfaceSearch | None = None) -> BodyCorrespondence:
     """Nearest point on a triangle surface for each point.
 
     Candidates are the triangles around the ``k`` nearest vertices (a kd-tree), which
@@ -124,36 +161,31 @@ def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
     n = len(points)
     if not n:
         return BodyCorrespondence(np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0))
-    # search: surface_search(vertices, faces, ring_width) made earlier
-    if search is None or search[1].shape[1] != ring_width:
+    if search is None or search.incident.shape[1] != ring_width:
         search = surface_search(vertices, faces, ring_width)
-    tree, incident = search
-    k = min(k, tree.n)
-    _, near = tree.query(points, k=k, workers=-1)
+    k = min(k, search.tree.n)
+    _, near = search.tree.query(points, k=k, workers=-1)
     near = near.reshape(n, -1)
     best_t = np.zeros(n, dtype=np.int64)
     best_w = np.zeros((n, 3))
     best_d = np.zeros(n)
-    tris = vertices[faces]  # (m, 3, 3)
-    # float32 about the points' centre, so precision follows the scene's size
-    centre = points.mean(0)
-    tris32, points32 = (tris - centre).astype(np.float32), (points - centre).astype(np.float32)
+    points32 = (points - search.centre).astype(np.float32)
+    vertices = np.asarray(vertices, dtype=np.float64)
+    faces = np.asarray(faces, dtype=np.int64)
 
     def run(sl):
-        cand = incident[near[sl]].reshape(sl.stop - sl.start, -1)  # (c, width), -1 padded
-        width = cand.shape[1]
-        # pick in float32 (half the memory traffic), then solve the pick again in float64
-        tri = tris32[np.maximum(cand, 0)].reshape(-1, 3, 3)
-        p = np.repeat(points32[sl], width, axis=0)
-        w = closest_point_on_triangles(p, tri[:, 0], tri[:, 1], tri[:, 2])
-        off = p - np.einsum("ij,ijk->ik", w, tri)
-        d = np.einsum("ij,ij->i", off, off).reshape(-1, width)
-        d[cand < 0] = np.inf
+        cand = search.incident[near[sl]].reshape(sl.stop - sl.start, -1)  # (c, k * width), -1 padded
+        real = cand >= 0
+        owner = np.nonzero(real)[0]
+        # pick in float32 over the real candidates only (half the memory traffic, no padding),
+        # then solve the pick again in float64
+        d = np.full(cand.shape, np.inf, dtype=np.float32)
+        d[real] = closest_on_table(points32[sl][owner], search.table[cand[real]], bary=False)
         pick = np.maximum(cand[np.arange(len(d)), np.argmin(d, axis=1)], 0)  # no triangle at all: triangle 0
-        tri = tris[pick]
-        best_t[sl] = pick
+        tri = vertices[faces[pick]]
         best_w[sl] = closest_point_on_triangles(points[sl], tri[:, 0], tri[:, 1], tri[:, 2])
-        best_d[sl] = np.linalg.norm(points[sl] - np.einsum("ij,ijk->ik", best_w[sl], tri), axis=1)
+        best_t[sl] = pick
+        best_d[sl] = norms(points[sl] - np.einsum("ij,ijk->ik", best_w[sl], tri))
 
     # numpy releases the GIL on these array sizes: slices run side by side on the cores
     map_chunks(run, n, chunk)
