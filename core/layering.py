@@ -24,7 +24,7 @@ from .correspondence import (
 from .hidden_faces import crossing_faces
 from .rays import RayScene
 from .segmentation import get_scheme, hull_normals, is_skirt, skirt_segments
-from .topology import ring_distance, topology_of, used_vertices, vertex_adjacency
+from .topology import ring_distance, topology_of, vertex_adjacency
 from .vectors import norms
 
 
@@ -62,63 +62,47 @@ def _per_garment(value, n, name):
 
 
 class _LayerLayout:
-    """What a layer's segment scenes need that moving its vertices does not change: which
-    triangles and which of their corners rays of each segment may meet."""
+    """What a layer's scenes need that moving its vertices does not change: which triangles
+    (and which of their corners) rays of each segment may meet."""
 
     def __init__(self, faces, face_segment, links, n_vertices):
         self.faces, self.face_segment, self.links, self.n_vertices = faces, face_segment, links, n_vertices
-        self._ids = {}
-        self._corners = {}
+        self._groups = None
 
-    def ids(self, segment):
-        if segment not in self._ids:
-            self._ids[segment] = np.flatnonzero(self.links[segment][self.face_segment])
-        return self._ids[segment]
-
-    def corners(self, segment):
-        """Vertices of the segment's triangles: their box is the triangles' box."""
-        if segment not in self._corners:
-            self._corners[segment] = np.flatnonzero(used_vertices(self.faces[self.ids(segment)], self.n_vertices))
-        return self._corners[segment]
+    def groups(self):
+        """(face order grouping the triangles by segment, where each group starts, its segment)."""
+        if self._groups is None:
+            order = np.argsort(self.face_segment, kind="stable")
+            seg = self.face_segment[order]
+            starts = np.flatnonzero(np.r_[True, seg[1:] != seg[:-1]]) if len(seg) else np.zeros(0, np.int64)
+            self._groups = order, starts, seg[starts]
+        return self._groups
 
 
 class _SegmentScenes:
-    """Embree scenes over one layer's triangles, one per segment, built on first use."""
+    """One layer's Embree scene, built on first use, and the boxes of what each segment's rays
+    may meet. One scene serves every segment: a ray's hits on triangles of a segment it may
+    not meet are passed over (a few rays, near part borders), which costs far less than a
+    BVH per segment, most of whose triangles several segments share."""
 
     def __init__(self, vertices, layout):
         self.vertices, self.layout = vertices, layout
         self.faces, self.face_segment = layout.faces, layout.face_segment
-        self._scenes = {}
-        self._bounds = {}
+        self._full = None
+        self._bounds = None
         self._face_box = None
         self.built = 0
 
     def built_full(self):
         """The scene over all of the layer's triangles if one was built, else None."""
-        return self._scenes.get("all")
+        return self._full
 
     def full(self):
         """One scene over all of the layer's triangles."""
-        if "all" not in self._scenes:
-            self._scenes["all"] = RayScene(self.vertices, self.faces)
+        if self._full is None:
+            self._full = RayScene(self.vertices, self.faces)
             self.built += 1
-        return self._scenes["all"]
-
-    def ids(self, segment):
-        """The layer's triangles that rays of ``segment`` may meet."""
-        return self.layout.ids(segment)
-
-    def get(self, segment):
-        if segment not in self._scenes:
-            ids = self.ids(segment)
-            if not len(ids):
-                self._scenes[segment] = None
-            elif len(ids) == len(self.faces):
-                self._scenes[segment] = (self.full(), ids)  # one segment: share the full scene
-            else:
-                self._scenes[segment] = (RayScene(self.vertices, self.faces[ids]), ids)
-                self.built += 1
-        return self._scenes[segment]
+        return self._full
 
     def _face_boxes(self):
         if self._face_box is None:
@@ -127,11 +111,10 @@ class _SegmentScenes:
             self._face_box = (np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c))
         return self._face_box
 
-    def get_near(self, segment, points, reach):
-        """A scene over only the segment's triangles within about ``reach`` of some point (at
-        least those: a voxel grid of that size decides), when that is under half of them
-        (built for one use); else the segment's cached scene."""
-        ids = self.ids(segment)
+    def get_near(self, ids, points, reach):
+        """(scene, ids): a scene over only those of the triangles ``ids`` within about ``reach``
+        of some point (at least those: a voxel grid of that size decides), when that is under
+        half of the layer (built for one use); else the full scene. None if none is near."""
         lo, hi = self._face_boxes()
         lo, hi = lo[ids], hi[ids]
         centre = 0.5 * (lo + hi)
@@ -154,27 +137,29 @@ class _SegmentScenes:
                 keep[:] = True
         if not keep.any():
             return None
-        if keep.sum() * 2 > len(ids) or segment in self._scenes:
-            return self.get(segment)
+        if keep.sum() * 2 > len(self.faces) or self._full is not None:
+            return self.full(), np.arange(len(self.faces))
         self.built += 1
         return RayScene(self.vertices, self.faces[ids[keep]]), ids[keep]
 
     def bounds_overlap(self, segment, lo, hi):
-        if segment not in self._bounds:
-            ids = self.ids(segment)
-            if not len(ids):
-                self._bounds[segment] = None
-            elif len(ids) == len(self.faces):  # all of the layer: its vertices' box, never smaller
-                self._bounds[segment] = (self.vertices.min(0), self.vertices.max(0))
-            else:
-                v = self.vertices[self.layout.corners(segment)]
-                self._bounds[segment] = (v.min(0), v.max(0))
-        box = self._bounds[segment]
-        return box is not None and bool((box[0] <= hi).all() and (box[1] >= lo).all())
+        """Whether the box of the triangles rays of ``segment`` may meet overlaps lo..hi."""
+        if self._bounds is None:
+            # each part's own box once; a segment's is the union of its linked parts'
+            self._bounds = np.full((len(self.layout.links), 2, 3), np.nan)
+            order, starts, seg = self.layout.groups()
+            if len(order):
+                face_lo, face_hi = self._face_boxes()
+                self._bounds[seg, 0] = np.minimum.reduceat(face_lo[order], starts, axis=0)
+                self._bounds[seg, 1] = np.maximum.reduceat(face_hi[order], starts, axis=0)
+        boxes = self._bounds[self.layout.links[segment]]
+        boxes = boxes[~np.isnan(boxes[:, 0, 0])]
+        return bool(len(boxes)) and bool((boxes[:, 0].min(0) <= hi).all() and (boxes[:, 1].max(0) >= lo).all())
 
 
-# Rays go on past hits on a layer facing the other way at most this many times.
-_FACING_ROUNDS = 8
+# Rays go on past hits that do not count (facing the other way, or on a part they may not
+# meet) at most this many times.
+_PASS_ROUNDS = 8
 
 
 def _face_segment(faces, vertex_segment):
@@ -190,12 +175,14 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
     the ray's own segments only: ``segment`` is (n,) or (n, 2) with -1 for no second one).
 
     Returns (t, layer index, face index within that layer, rays traced, seconds tracing);
-    layer -1 where nothing was hit. Layers whose segment bounds are out of the rays'
-    reach are skipped; with ``cull`` only triangles within that reach of the origins go
-    into the scene (for rays bunched along a few lines, such as hems). With ``facing`` =
+    layer -1 where nothing was hit. Rays of segments whose triangles' bounds are out of
+    their reach skip a layer; with ``cull`` only triangles within that reach of the origins
+    go into the scene (for rays bunched along a few lines, such as hems). With ``facing`` =
     (global normals per layer, per-ray normals), a hit counts only where the layer's
     interpolated global normal points the ray's way: the far side of a skirt, met through
-    the gap between the legs, is not in front of the near side: rays go on past such hits.
+    the gap between the legs, is not in front of the near side. Rays go on past such hits,
+    and past triangles of segments they may not meet (a ray exactly through an edge between
+    such a triangle and one it may meet misses both: measure zero, unlike a BVH per segment).
     Rays where ``skip`` (bool per ray, or None) holds are not traced.
     """
     n = len(origins)
@@ -207,53 +194,74 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
     segs = np.asarray(segment).reshape(n, -1)  # a second column: the border segment, -1 for none
     if skip is not None:
         segs = np.where(skip[:, None], -1, segs)
-    for s in np.unique(segs[segs >= 0]):
-        idx = np.flatnonzero((segs == s).any(1))
-        reach = max_dist[idx, None]
-        lo = (origins[idx] - reach).min(0)
-        hi = (origins[idx] + reach).max(0)
-        for k in layers:
-            scenes = layer_scenes[k]
-            if not scenes.bounds_overlap(s, lo, hi):
-                continue
-            found = scenes.get_near(s, origins[idx], float(reach.max())) if cull else scenes.get(s)
-            if found is None:
-                continue
-            scene, ids = found
-            scene.commit()  # the BVH build is not tracing
-            o, ray_dir, length = origins[idx], directions[idx], max_dist[idx]
-            if farthest:
-                # the farthest hit within reach is the first met coming back from the far end
-                # (a fold of one layer has two sheets in reach: the vertex goes behind both)
-                o, ray_dir = o + ray_dir * length[:, None], -ray_dir
-            step = 1e-6 * (length + float(norms((hi - lo)[None])[0]))  # past a hit, float32-safe
-            live, t_min = slice(None), np.zeros(len(idx))
-            for _ in range(_FACING_ROUNDS):
-                t0 = time.perf_counter()
-                hits = scene.intersect(o[live], ray_dir[live], max_dist=length[live],
-                                       min_dist=None if isinstance(live, slice) else t_min[live])
-                trace_s += time.perf_counter() - t0
-                rays += len(hits.t)
-                live = np.arange(len(idx)) if isinstance(live, slice) else live
-                live, t_hit, face = live[hits.hit], hits.t[hits.hit], ids[hits.face[hits.hit]]
-                if facing is not None and len(live):
-                    u, w = hits.bary[hits.hit, 0], hits.bary[hits.hit, 1]
-                    nk = facing[0][k][scenes.faces[face]]
-                    n_hit = (1 - u - w)[:, None] * nk[:, 0] + u[:, None] * nk[:, 1] + w[:, None] * nk[:, 2]
-                    ok = np.einsum("ij,ij->i", n_hit, facing[1][idx[live]]) > 0
-                else:
-                    ok = np.ones(len(live), dtype=bool)
-                t_ray = length[live] - t_hit if farthest else t_hit
-                better = ok & ((t_ray > best_t[idx[live]]) if farthest else (t_ray < best_t[idx[live]]))
-                sel = idx[live[better]]
-                best_t[sel] = t_ray[better]
-                best_layer[sel] = k
-                best_face[sel] = face[better]
-                # a hit facing the other way (the far side of a skirt) hides nothing: look past it
-                t_min[live] = t_hit + step[live]
-                live = live[~ok]
-                if not len(live):
-                    break
+    ray_segments = np.unique(segs[segs >= 0])
+    layers = list(layers)
+    if not len(ray_segments) or not layers:
+        return best_t, best_layer, best_face, rays, trace_s
+    links = layer_scenes[layers[0]].layout.links
+    # per ray, the face segments it may meet: its own segments' links
+    allowed = np.zeros((n, len(links)), dtype=bool)
+    rows_of, box_of = {}, {}
+    for s in ray_segments:
+        rows = rows_of[s] = np.flatnonzero((segs == s).any(1))
+        allowed[rows] |= links[s]
+        reach = max_dist[rows]
+        # column by column: a reduction over the long axis of an (n, 3) array is several times slower
+        box_of[s] = np.array([[(origins[rows, a] - reach).min() for a in range(3)],
+                              [(origins[rows, a] + reach).max() for a in range(3)]])
+    for k in layers:
+        scenes = layer_scenes[k]
+        # the rays of every segment whose triangles' box is within those rays' reach
+        near = [s for s in ray_segments if scenes.bounds_overlap(s, *box_of[s])]
+        if not near:
+            continue
+        idx = rows_of[near[0]] if len(near) == 1 else np.flatnonzero(np.isin(segs, near).any(1))
+        boxes = np.array([box_of[s] for s in near])
+        lo, hi = boxes[:, 0].min(0), boxes[:, 1].max(0)
+        if cull:
+            found = scenes.get_near(np.flatnonzero(allowed[idx].any(0)[scenes.face_segment]), origins[idx],
+                                    float(max_dist[idx].max()))
+        else:
+            found = scenes.full(), None
+        if found is None:
+            continue
+        scene, ids = found
+        scene.commit()  # the BVH build is not tracing
+        o, ray_dir, length = origins[idx], directions[idx], max_dist[idx]
+        if farthest:
+            # the farthest hit within reach is the first met coming back from the far end
+            # (a fold of one layer has two sheets in reach: the vertex goes behind both)
+            o, ray_dir = o + ray_dir * length[:, None], -ray_dir
+        step = 1e-6 * (length + float(norms((hi - lo)[None])[0]))  # past a hit, float32-safe
+        live, t_min = slice(None), np.zeros(len(idx))
+        for _ in range(_PASS_ROUNDS):
+            t0 = time.perf_counter()
+            hits = scene.intersect(o[live], ray_dir[live], max_dist=length[live],
+                                   min_dist=None if isinstance(live, slice) else t_min[live])
+            trace_s += time.perf_counter() - t0
+            rays += len(hits.t)
+            live = np.arange(len(idx)) if isinstance(live, slice) else live
+            live, t_hit, face = live[hits.hit], hits.t[hits.hit], hits.face[hits.hit]
+            if ids is not None:
+                face = ids[face]
+            ok = allowed[idx[live], scenes.face_segment[face]]
+            if facing is not None and len(live):
+                u, w = hits.bary[hits.hit, 0], hits.bary[hits.hit, 1]
+                nk = facing[0][k][scenes.faces[face]]
+                n_hit = (1 - u - w)[:, None] * nk[:, 0] + u[:, None] * nk[:, 1] + w[:, None] * nk[:, 2]
+                ok &= np.einsum("ij,ij->i", n_hit, facing[1][idx[live]]) > 0
+            t_ray = length[live] - t_hit if farthest else t_hit
+            better = ok & ((t_ray > best_t[idx[live]]) if farthest else (t_ray < best_t[idx[live]]))
+            sel = idx[live[better]]
+            best_t[sel] = t_ray[better]
+            best_layer[sel] = k
+            best_face[sel] = face[better]
+            # a hit facing the other way (the far side of a skirt) or on a part the ray may not
+            # meet hides nothing: look past it
+            t_min[live] = t_hit + step[live]
+            live = live[~ok]
+            if not len(live):
+                break
     return best_t, best_layer, best_face, rays, trace_s
 
 

@@ -266,8 +266,52 @@ def test_culled_hem_scenes_give_the_same_hits_as_the_whole_layer():
         a, b = f[f_cull[full.hit]], f[full.face[full.hit]]
         assert (a[:, :, None] == b[:, None, :]).any((1, 2)).all()
     # and the culled scene really is a part of the layer (the hems' bands)
-    _, ids = _SegmentScenes(np.asarray(lower.vertices), layout).get_near(0, o, 0.03)
+    _, ids = _SegmentScenes(np.asarray(lower.vertices), layout).get_near(np.arange(len(f)), o, 0.03)
     assert len(ids) < 0.5 * len(f)
+
+
+def test_one_scene_per_layer_gives_each_ray_only_its_own_segments_hits():
+    """Rays are traced against one scene of the whole layer and pass over triangles of parts
+    they may not meet: the answer is brute force over just the triangles they may meet."""
+    from core.layering import _LayerLayout, _SegmentScenes, _trace_layers
+    from tests.core.brute import moller_trumbore
+
+    lower, upper = noisy_sleeves(n=32)
+    v, f = np.asarray(upper.vertices), np.asarray(upper.faces)
+    angle = lambda p: np.arctan2(p[..., 1], p[..., 0])  # noqa: E731
+    fseg = np.digitize(angle(v[f].mean(1)), [-1.0, 1.5])  # three wedges of the sleeve
+    links = np.eye(3, dtype=bool)
+    links[0, 1] = links[1, 0] = True
+    o = np.asarray(lower.vertices)
+    rng = np.random.default_rng(4)
+    # outward, tilted at random: rays straight along the grid's columns would pass exactly
+    # through edges, where the brute force (not watertight) misses both triangles
+    out = np.column_stack([o[:, :2], np.zeros(len(o))]) / np.linalg.norm(o[:, :2], axis=1)[:, None]
+    out += rng.normal(scale=0.05, size=out.shape)
+    out /= np.linalg.norm(out, axis=1, keepdims=True)
+    # wedges by the vertex's own angle, shifted so many rays start in one wedge and look into another
+    segs = np.column_stack([np.digitize(angle(o) + 0.3, [-1.0, 1.5]), np.full(len(o), -1)])
+    border = rng.random(len(o)) < 0.2
+    segs[border, 1] = rng.integers(0, 3, border.sum())
+    reach = np.full(len(o), 0.04)
+    allowed = links[segs[:, 0]] | np.where(segs[:, 1:] >= 0, links[np.maximum(segs[:, 1], 0)], False)
+    for farthest in (False, True):
+        scenes = [_SegmentScenes(v, _LayerLayout(f, fseg, links, len(v)))]
+        t, layer, face, _, _ = _trace_layers(o, out, reach, segs, scenes, [0], farthest=farthest)
+        # brute force per set of parts a ray may meet; the farthest hit within reach is the
+        # nearest one coming back from the far end
+        start, way = (o + 0.04 * out, -out) if farthest else (o, out)
+        t_ref = np.full(len(o), np.inf)
+        for key in np.unique(allowed, axis=0):
+            rows = np.flatnonzero((allowed == key).all(1))
+            ids = np.flatnonzero(key[fseg])
+            t_key, _ = moller_trumbore(start[rows], way[rows], v, f[ids], 0.0, 0.04)
+            t_ref[rows] = 0.04 - t_key if farthest else t_key
+        hit = np.isfinite(t_ref)
+        assert hit.sum() > 100 and (~hit).sum() > 100  # both kinds, and rays whose first hit was not theirs
+        assert ((layer == 0) == hit).all()
+        np.testing.assert_allclose(t[hit], t_ref[hit], atol=1e-9)
+        assert allowed[hit, fseg[face[hit]]].all()
 
 
 def test_segment_bounds_are_the_boxes_of_the_triangles_each_segment_may_meet():
@@ -283,11 +327,16 @@ def test_segment_bounds_are_the_boxes_of_the_triangles_each_segment_may_meet():
     for s in range(3):
         tri = v[f[links[s][seg]]].reshape(-1, 3)
         lo, hi = tri.min(0), tri.max(0)
+        # asked first (when the boxes are made) and asked again give the same answers
+        assert not _SegmentScenes(v, _LayerLayout(f, seg, links, len(v))).bounds_overlap(s, hi + 1e-9, hi + 1.0)
         assert scenes.bounds_overlap(s, lo, hi)
-        np.testing.assert_array_equal(scenes._bounds[s][0], lo)
-        np.testing.assert_array_equal(scenes._bounds[s][1], hi)
-        # a box just beside it does not overlap
+        # boxes touching it at either corner overlap; boxes just beside it do not
+        assert scenes.bounds_overlap(s, hi, hi + 1.0) and scenes.bounds_overlap(s, lo - 1.0, lo)
         assert not scenes.bounds_overlap(s, hi + 1e-9, hi + 1.0)
+        assert not scenes.bounds_overlap(s, lo - 1.0, lo - 1e-9)
+        for axis in range(3):  # and on each axis: the box is exact on every side
+            step = np.eye(3)[axis] * 1e-9
+            assert not scenes.bounds_overlap(s, lo - 1.0, lo + (hi - lo) * (1 - np.eye(3)[axis]) - step)
 
 
 def test_a_joint_bulging_beside_the_probe_ray_still_holds_the_lower_layer_out():
