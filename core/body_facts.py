@@ -94,16 +94,22 @@ def part_junctions(vertices, faces, segment):
     other = [segment[e[cross, 1]], segment[e[cross, 0]]]
     lengths = np.linalg.norm(vertices[e[:, 0]] - vertices[e[:, 1]], axis=1)
     reach = 0.5 * float(lengths.mean()) if len(lengths) else 0.0
-    # another part's surface that close has a vertex among a vertex's nearest neighbours
-    # within an edge: test the triangles around those neighbours
-    k = min(16, len(vertices))
-    d, j = cKDTree(vertices).query(vertices, k=k, distance_upper_bound=float(lengths.max(initial=0.0)) + reach,
-                                   workers=-1)
-    found = np.isfinite(d) & (segment[np.where(np.isfinite(d), j, 0)] != segment[:, None])
-    row = np.flatnonzero(found.any(1))
-    col = np.argmax(found[row], axis=1)  # the nearest neighbour of another part
+    # another part's surface that close has a vertex within an edge: its nearest vertex of
+    # another part, from a tree per part (points outside a part's box plus that reach skip it)
+    bound = float(lengths.max(initial=0.0)) + reach
+    best_d, best_j = np.full(len(vertices), np.inf), np.full(len(vertices), -1)
+    members = {p: np.flatnonzero(segment == p) for p in np.unique(segment)}
+    for q, theirs in members.items():
+        tree, lo, hi = cKDTree(vertices[theirs]), vertices[theirs].min(0) - bound, vertices[theirs].max(0) + bound
+        for p, mine in members.items():
+            mine = mine[((vertices[mine] >= lo) & (vertices[mine] <= hi)).all(1)] if p != q else mine[:0]
+            if len(mine):
+                d, j = tree.query(vertices[mine], distance_upper_bound=bound, workers=-1)
+                better = d < best_d[mine]
+                best_d[mine[better]], best_j[mine[better]] = d[better], theirs[j[better]]
+    row = np.flatnonzero(np.isfinite(best_d))
     if len(row):
-        nb = j[row, col]
+        nb = best_j[row]
         tris = incident_triangles(faces, len(vertices), 8)[nb]  # (pairs, 8), -1 padded
         pr, pc = np.nonzero(tris >= 0)
         tri_id = tris[pr, pc]

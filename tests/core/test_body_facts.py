@@ -57,3 +57,26 @@ def test_part_radius_is_each_parts_radius_and_nan_for_a_part_without_vertices():
     got = body_facts(v, f).part_radius(parts, 3)
     np.testing.assert_allclose(got[:2], [0.1, 0.04], rtol=0.01)
     assert np.isnan(got[2])
+
+
+def test_junctions_of_parts_modelled_apart_are_the_vertices_near_the_other_parts_surface():
+    """Three balls overlapping a little, each its own part and its own mesh: a vertex is a
+    junction exactly where the other balls' surface is within half an edge (brute force)."""
+    balls = [trimesh.creation.icosphere(subdivisions=3, radius=r) for r in (0.1, 0.08, 0.09)]
+    for ball, x in zip(balls, (0.0, 0.17, 0.085), strict=True):
+        ball.apply_translation([x, 0.0, 0.16 if x == 0.085 else 0.0])
+    v = np.vstack([b.vertices for b in balls])
+    f = np.vstack([b.faces + sum(len(c.vertices) for c in balls[:i]) for i, b in enumerate(balls)])
+    seg = np.repeat(np.arange(3), [len(b.vertices) for b in balls])
+    e = np.vstack([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    reach = 0.5 * np.linalg.norm(v[e[:, 0]] - v[e[:, 1]], axis=1).mean()  # each edge twice: the same mean
+    pos, own, other = part_junctions(v, f, seg)
+    got = set(zip(map(tuple, np.round(pos, 12)), own.tolist(), other.tolist(), strict=True))
+    want = set()
+    for p in range(3):
+        for q in range(3):
+            if p != q:
+                _, dist, _ = trimesh.proximity.closest_point(balls[q], balls[p].vertices)
+                want |= {(tuple(np.round(x, 12)), p, q) for x in balls[p].vertices[dist <= reach]}
+    assert len(want) > 20
+    assert got == want
