@@ -62,11 +62,11 @@ def _per_garment(value, n, name):
 
 
 class _LayerLayout:
-    """What a layer's scenes need that moving its vertices does not change: which triangles
-    (and which of their corners) rays of each segment may meet."""
+    """What a layer's scenes need that moving its vertices does not change: each triangle's
+    segment, which segments rays of each segment may meet, the triangles grouped by segment."""
 
-    def __init__(self, faces, face_segment, links, n_vertices):
-        self.faces, self.face_segment, self.links, self.n_vertices = faces, face_segment, links, n_vertices
+    def __init__(self, faces, face_segment, links):
+        self.faces, self.face_segment, self.links = faces, face_segment, links
         self._groups = None
 
     def groups(self):
@@ -503,7 +503,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     edges = [t.edges for t in topo]
     hems = [t.hem_vertices for t in topo]
     fseg = [_face_segment(f, s) for f, s in zip(faces, vseg, strict=True)]
-    layouts = [_LayerLayout(faces[i], fseg[i], links, len(verts[i])) for i in range(n_g)]
+    layouts = [_LayerLayout(faces[i], fseg[i], links) for i in range(n_g)]
     scenes = [_SegmentScenes(verts[i], layouts[i]) for i in range(n_g)]
     rays = {"boundary": 0, "push": 0, "hidden": 0}
     moved_by = {"boundary": 0, "push": 0}

@@ -249,7 +249,7 @@ def test_culled_hem_scenes_give_the_same_hits_as_the_whole_layer():
 
     lower, upper = noisy_sleeves(n=48)
     f = np.asarray(lower.faces)
-    layout = _LayerLayout(f, np.zeros(len(f), int), np.eye(1, dtype=bool), len(lower.vertices))
+    layout = _LayerLayout(f, np.zeros(len(f), int), np.eye(1, dtype=bool))
     scenes = [_SegmentScenes(np.asarray(lower.vertices), layout)]
     hem = np.flatnonzero(boundary_vertices(upper.faces, len(upper.vertices)))
     o = np.asarray(upper.vertices)[hem]
@@ -296,7 +296,7 @@ def test_one_scene_per_layer_gives_each_ray_only_its_own_segments_hits():
     reach = np.full(len(o), 0.04)
     allowed = links[segs[:, 0]] | np.where(segs[:, 1:] >= 0, links[np.maximum(segs[:, 1], 0)], False)
     for farthest in (False, True):
-        scenes = [_SegmentScenes(v, _LayerLayout(f, fseg, links, len(v)))]
+        scenes = [_SegmentScenes(v, _LayerLayout(f, fseg, links))]
         t, layer, face, _, _ = _trace_layers(o, out, reach, segs, scenes, [0], farthest=farthest)
         # brute force per set of parts a ray may meet; the farthest hit within reach is the
         # nearest one coming back from the far end
@@ -323,12 +323,12 @@ def test_segment_bounds_are_the_boxes_of_the_triangles_each_segment_may_meet():
     seg[v[f].mean(1)[:, 0] > 0.5 * v[:, 0].max()] = 2  # a third on one side
     links = np.eye(3, dtype=bool)
     links[0, 2] = links[2, 0] = True
-    scenes = _SegmentScenes(v, _LayerLayout(f, seg, links, len(v)))
+    scenes = _SegmentScenes(v, _LayerLayout(f, seg, links))
     for s in range(3):
         tri = v[f[links[s][seg]]].reshape(-1, 3)
         lo, hi = tri.min(0), tri.max(0)
         # asked first (when the boxes are made) and asked again give the same answers
-        assert not _SegmentScenes(v, _LayerLayout(f, seg, links, len(v))).bounds_overlap(s, hi + 1e-9, hi + 1.0)
+        assert not _SegmentScenes(v, _LayerLayout(f, seg, links)).bounds_overlap(s, hi + 1e-9, hi + 1.0)
         assert scenes.bounds_overlap(s, lo, hi)
         # boxes touching it at either corner overlap; boxes just beside it do not
         assert scenes.bounds_overlap(s, hi, hi + 1.0) and scenes.bounds_overlap(s, lo - 1.0, lo)
