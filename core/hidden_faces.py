@@ -13,13 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .rays import RayScene
+from .rays import RayScene, step_past_hit
 from .topology import used_vertices
 from .vectors import norms
 
-# Past a hit the next search starts this far on (a fraction of the edge plus the scene's
-# size), or float32 tracing could meet the same triangle again.
-_STEP = 1e-6
 _MAX_ROUNDS = 64
 
 
@@ -81,8 +78,7 @@ def crossing_faces(vertices, faces, edges, scenes=None) -> tuple[list, int]:
         rays += len(o)
         live = np.flatnonzero(scene.occluded(o, d, max_dist=tmax))
         t_min = np.zeros(len(o))
-        # float32 round-off grows with the scene's size
-        step = _STEP * (tmax + np.linalg.norm(hi - lo))
+        step = step_past_hit(tmax, lo, hi)
         for _ in range(_MAX_ROUNDS):  # every triangle of layer j along each crossing edge
             if not len(live):
                 break

@@ -22,7 +22,7 @@ from .correspondence import (
     nearest_on_surface,
 )
 from .hidden_faces import crossing_faces
-from .rays import RayScene
+from .rays import RayScene, step_past_hit
 from .segmentation import get_scheme, hull_normals, is_skirt, skirt_segments
 from .topology import ring_distance, topology_of, vertex_adjacency
 from .vectors import norms
@@ -232,7 +232,7 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
             # the farthest hit within reach is the first met coming back from the far end
             # (a fold of one layer has two sheets in reach: the vertex goes behind both)
             o, ray_dir = o + ray_dir * length[:, None], -ray_dir
-        step = 1e-6 * (length + float(norms((hi - lo)[None])[0]))  # past a hit, float32-safe
+        step = step_past_hit(length, lo, hi)
         live, t_min = slice(None), np.zeros(len(idx))
         for _ in range(_PASS_ROUNDS):
             t0 = time.perf_counter()

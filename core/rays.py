@@ -28,7 +28,7 @@ try:
 except ImportError:  # pragma: no cover - exercised by the fallback test via monkeypatch
     HAVE_EMBREE = False
 
-__all__ = ["HAVE_EMBREE", "RayHits", "RayScene", "thread_count"]
+__all__ = ["HAVE_EMBREE", "RayHits", "RayScene", "step_past_hit", "thread_count"]
 
 # Below this many rays a thread hand-off costs more than it saves.
 _MIN_RAYS_PER_CHUNK = 16384
@@ -357,6 +357,13 @@ class RayScene:
             u = (d22 * w1 - d12 * w2) / det
             v = (d11 * w2 - d12 * w1) / det
         return np.nan_to_num(np.column_stack([u, v]))
+
+
+def step_past_hit(length, lo, hi):
+    """How far past a hit the next search of a ray starts (``length`` its reach, lo..hi the box
+    its scene works in): float32 tracing could meet the same triangle again any nearer, and
+    its round-off grows with the ray's reach and the scene's size."""
+    return 1e-6 * (length + float(norms((np.asarray(hi) - np.asarray(lo))[None])[0]))
 
 
 def _float32_dist(dist: np.ndarray) -> np.ndarray:
