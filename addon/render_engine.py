@@ -21,6 +21,7 @@ import numpy as np
 
 from ..core.body_facts import body_facts
 from ..core.layered_trace import LayeredScene
+from ..core.segmentation import get_scheme, is_skirt, skirt_segments
 from ..core.whitted import Image, Light, Material, camera_rays, render
 from . import mesh_io
 from .layer_resolve import GLOBAL_NORMAL_ATTRIBUTE, body_parts, probe_distances
@@ -90,17 +91,21 @@ def scene_arrays(depsgraph):
             parts, _ = body_parts(obj, settings.scheme, a.vertices, groups=False, depsgraph=depsgraph)
             if parts is not None and len(parts) != len(a.vertices):
                 parts = None
-    probe = body_probes(objects, layers, probe_distances(settings, parts is not None), parts)
+    scheme = settings.scheme if parts is not None and settings.scheme != "NONE" else None
+    probe = body_probes(objects, layers, probe_distances(settings, parts is not None), parts, scheme)
     return LayeredScene(objects, layers, normals, probe_distance=probe, offset=settings.offset), materials, sources
 
 
-def body_probes(objects, layers, given=None, parts=None):
+def body_probes(objects, layers, given=None, parts=None, scheme=None):
     """l_s per vertex as the resolve takes it: ``given`` (one distance, or one per part with
     NaN where the part keeps its default) or else the body's radius (half its thickness
     straight through), each part's median when the body has ``parts`` (one id per body vertex)
     and the radius under each vertex when it has none; every vertex of the body and the
-    garments takes the value at its nearest body vertex. Objects outside the layering, or all
-    of them when there is no body, keep the default (None)."""
+    garments takes the value of the part of its nearest body vertex. With the ``scheme`` the
+    parts follow, a garment whose hem goes round both legs (a skirt) takes the skirt
+    segment's l_s on the legs, as in the resolve (BodyFacts.probe_lengths: its linked parts'
+    farthest reach, or its override). Objects outside the layering, or all of them when there
+    is no body, keep the default (None)."""
     if given is not None and np.ndim(given) == 0:
         return float(given)
     if given is not None and parts is None:
@@ -109,18 +114,30 @@ def body_probes(objects, layers, given=None, parts=None):
     if body is None:
         return None
     facts = body_facts(*objects[body])  # kept: the next frame of a still body asks again
-    radius, search = facts.radius, facts.search
-    if parts is not None:
-        parts = np.asarray(parts, np.int64)
-        count = max(parts.max(initial=-1) + 1, 0 if given is None else len(given))
-        per_part = facts.part_radius(parts, count)
-        # a part with no body vertex of its own (the skirt) gets the body's median
-        per_part[np.isnan(per_part)] = np.median(radius)
-        if given is not None:
-            per_part = np.where(np.isnan(given), per_part, given)
-        radius = per_part[parts]
-    return [None if lay is None else radius[search.vertex_ids[search.tree.query(v, workers=-1)[1]]]
-            for (v, _), lay in zip(objects, layers, strict=True)]
+    search = facts.search
+    nearest = [None if lay is None else search.vertex_ids[search.tree.query(v, workers=-1)[1]]
+               for (v, _), lay in zip(objects, layers, strict=True)]
+    if parts is None:
+        return [None if at is None else facts.radius[at] for at in nearest]
+    parts = np.asarray(parts, np.int64)
+    scheme = None if scheme is None else get_scheme(scheme)
+    if scheme is not None:
+        count, links = len(scheme.parts), scheme.links()
+    else:
+        count = max(int(parts.max(initial=-1)) + 1, 0 if given is None else len(given))
+        links = np.eye(count, dtype=bool)
+    per_part = facts.probe_lengths(parts, count, links, given)
+    out = []
+    for i, ((v, f), at) in enumerate(zip(objects, nearest, strict=True)):
+        if at is None:
+            out.append(None)
+            continue
+        seg = parts[at]
+        if (scheme is not None and i != body and len(f)
+                and is_skirt(f, seg, scheme, vertices=v, body_vertices=objects[body][0], body_segments=parts)):
+            seg = skirt_segments(seg, scheme)
+        out.append(per_part[seg])
+    return out
 
 
 def _background(world):

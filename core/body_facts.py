@@ -67,6 +67,18 @@ class BodyFacts:
         return np.array([np.median(self.radius[segment == s]) if (segment == s).any() else np.nan
                          for s in range(count)])
 
+    def probe_lengths(self, segment, count: int, links, given=None) -> np.ndarray:
+        """l_s per segment id 0..count-1, one rule for the resolve and the render engine: each
+        part's median radius; a segment with no body vertex of its own (the skirt) reaches as
+        far as the farthest part it is linked to (``links``, (count, count) bool), or the
+        body's median radius if none has vertices; then ``given`` (per id, NaN keeps the
+        default) replaces the defaults."""
+        out = self.part_radius(segment, count)
+        for s in np.flatnonzero(np.isnan(out)):
+            linked = out[np.asarray(links)[s]]
+            out[s] = np.nanmax(linked) if np.isfinite(linked).any() else np.median(self.radius)
+        return out if given is None else np.where(np.isnan(given), out, given)
+
     def junctions(self, segment):
         key = _digest(segment)
         if key not in self._junctions:

@@ -410,16 +410,8 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         raise ValueError("probe_distance must be finite and >= 0 (NaN for a part's default)")
     if given is not None and np.isnan(given).all():
         given = None
-    radius = None
-    if given is None or np.isnan(given).any():
-        radius = body.radius
-        l_seg = body.part_radius(body_seg, n_seg)
-        # a segment with no body points of its own (the skirt) reaches as far as its linked parts
-        for s in np.flatnonzero(np.isnan(l_seg)):
-            linked = l_seg[links[s]]
-            l_seg[s] = np.nanmax(linked) if np.isfinite(linked).any() else np.median(radius)
-    if given is not None:
-        l_seg = np.where(np.isnan(given), l_seg, given) if radius is not None else given
+    radius = body.radius if given is None or np.isnan(given).any() else None
+    l_seg = given if radius is None else body.probe_lengths(body_seg, n_seg, links, given)
     # Without segments (one part) the probe distance follows the body locally: each garment
     # vertex takes the body's radius at its nearest point, so a sleeve probe stops inside the arm.
     local_probe = given is None and body_segments is None

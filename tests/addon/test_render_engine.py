@@ -214,3 +214,30 @@ def test_probe_distance_follows_the_body_parts_and_their_overrides(extension):
     np.testing.assert_array_equal(probes[2], 0.02)
     with pytest.raises(ValueError, match="need the body's parts"):
         engine.body_probes(objects, [0, 1, 2], given=np.array([np.nan, 0.02]))
+
+
+def test_a_skirt_probes_as_far_as_the_resolve_takes_it_and_its_override_counts(extension):
+    """S5 lower body: a 15 cm torso on 7 cm legs. A skirt's points on the legs are in the
+    skirt segment, which reaches as far as the torso (its farthest linked part), as in the
+    resolve; a trouser leg keeps its leg's radius. The panel's Skirt override reaches them."""
+    from sample_scenes.shapes import tube
+    from tests.core.layered_cases import lower_body, mesh
+
+    engine = importlib.import_module(f"{extension.__name__}.addon.render_engine")
+    body, parts = lower_body()
+    skirt = mesh(*tube(0.18, 0.2, 0.62, n_around=64, n_along=24))
+    trouser = mesh(*tube(0.085, 0.05, 0.49, n_around=32, n_along=12))
+    trouser.apply_translation([-0.09, 0.0, 0.0])
+    objects = [(body.vertices, body.faces), (skirt.vertices, skirt.faces), (trouser.vertices, trouser.faces)]
+    probes = engine.body_probes(objects, [0, 1, 2], parts=parts, scheme="S5")
+    from scipy.spatial import cKDTree
+
+    on_legs = np.isin(parts[cKDTree(body.vertices).query(skirt.vertices)[1]], (3, 4))
+    assert on_legs.sum() > len(on_legs) / 3
+    np.testing.assert_allclose(probes[1][on_legs], 0.15, rtol=0.05)
+    np.testing.assert_allclose(probes[2][trouser.vertices[:, 2] < 0.45], 0.07, rtol=0.05)
+    given = np.full(6, np.nan)
+    given[5] = 0.03  # S5's skirt
+    probes = engine.body_probes(objects, [0, 1, 2], given=given, parts=parts, scheme="S5")
+    np.testing.assert_array_equal(probes[1][on_legs], 0.03)
+    np.testing.assert_allclose(probes[2][trouser.vertices[:, 2] < 0.45], 0.07, rtol=0.05)

@@ -59,6 +59,23 @@ def test_part_radius_is_each_parts_radius_and_nan_for_a_part_without_vertices():
     assert np.isnan(got[2])
 
 
+def test_probe_lengths_give_a_part_without_vertices_its_linked_parts_farthest_reach():
+    """The balls of 10 cm and 4 cm as parts 0 and 1; part 2 (a skirt) is linked to both,
+    part 3 to neither: it takes the median over the body, halfway between the two radii
+    (both balls have as many vertices). Overrides replace defaults, NaN keeps them."""
+    big = trimesh.creation.icosphere(subdivisions=4, radius=0.1)
+    small = trimesh.creation.icosphere(subdivisions=4, radius=0.04)
+    v = np.vstack([big.vertices, small.vertices + [0.5, 0.0, 0.0]])
+    f = np.vstack([big.faces, small.faces + len(big.vertices)])
+    parts = np.repeat([0, 1], [len(big.vertices), len(small.vertices)])
+    links = np.eye(4, dtype=bool)
+    links[2, :2] = links[:2, 2] = True
+    facts = body_facts(v, f)
+    np.testing.assert_allclose(facts.probe_lengths(parts, 4, links), [0.1, 0.04, 0.1, 0.07], rtol=0.01)
+    got = facts.probe_lengths(parts, 4, links, given=np.array([np.nan, 0.02, 0.03, np.nan]))
+    np.testing.assert_allclose(got, [0.1, 0.02, 0.03, 0.07], rtol=0.01)
+
+
 def test_junctions_of_parts_modelled_apart_are_the_vertices_near_the_other_parts_surface():
     """Three balls overlapping a little, each its own part and its own mesh: a vertex is a
     junction exactly where the other balls' surface is within half an edge (brute force)."""
