@@ -12,7 +12,6 @@ import numpy as np
 
 from .correspondence import closest_point_on_triangles, vertex_normals
 from .rays import RayScene
-from .vectors import along
 
 
 @dataclass
@@ -166,7 +165,7 @@ class LayeredScene:
             if not poke.any():
                 break
             step = hits.t[poke] + self.eps
-            ask, o, d, own = ask[poke], along(o[poke], d[poke], step), d[poke], own[poke]
+            ask, o, d, own = ask[poke], o[poke] + d[poke] * step[:, None], d[poke], own[poke]
             dist, travelled = dist[poke] - step, travelled[poke] + step
         else:
             out[ask] = False
@@ -236,7 +235,7 @@ class LayeredScene:
                     cand = cand_all[by_layer == layer]
                     if not len(cand):
                         continue
-                    p = along(o[todo[cand]], d[todo[cand]], hits.t[cand])
+                    p = o[todo[cand]] + d[todo[cand]] * hits.t[cand, None]
                     # a probe cannot reach what is worn over the layer from farther than its reach
                     box, most = self._cover_box[layer]
                     near = _box_distance(p, box) <= most
@@ -265,12 +264,12 @@ class LayeredScene:
             result.t[done] = np.where(hit_s, t_total[done] + hits.t[shown], np.inf)
             result.obj[done] = obj[shown]
             result.face[done] = face[shown]
-            result.bary[done] = hits.bary[shown]  # (0, 0) on a miss
+            result.bary[done] = np.where(hit_s[:, None], hits.bary[shown], 0.0)
             again = todo[rejected]
             result.fixed[again] = True
             result.skipped += len(again)
             # go on from the ignored hit
-            o[again] = along(o[again], d[again], hits.t[rejected])
+            o[again] = o[again] + d[again] * hits.t[rejected, None]
             t_total[again] += hits.t[rejected]
             min_dist[again] = self.eps
             todo = again
