@@ -17,7 +17,7 @@ import numpy as np
 from . import embree_direct
 from .parallel import map_chunks, thread_count
 from .topology import used_vertices
-from .vectors import along, divide_rows, norms, shifted
+from .vectors import norms
 
 try:
     from embreex import rtcore as _rtc
@@ -84,7 +84,7 @@ class RayHits:
         o, d = _as_rays(origins, directions)
         out = np.full_like(o, np.nan)
         h = self.hit
-        out[h] = along(o[h], d[h], self.t[h])
+        out[h] = o[h] + d[h] * self.t[h, None]
         return out
 
 
@@ -107,7 +107,7 @@ def _as_rays(origins, directions) -> tuple[np.ndarray, np.ndarray]:
     length = norms(d)
     if len(length) and not (length > 0).all():
         raise ValueError(f"directions has {(length <= 0).sum()} zero-length vectors")
-    return o, divide_rows(d, length) if len(d) else d
+    return o, d / length[:, None] if len(d) else d
 
 
 def _as_range(name: str, value, n: int, default: float) -> np.ndarray:
@@ -155,7 +155,7 @@ class RayScene:
         self._face_normals = None
         self._planes = None
         if in_place:
-            self._mesh.move(shifted(v, self._center))
+            self._mesh.move(v - self._center)
             return
         self._used = np.flatnonzero(used_vertices(f, len(v)))
         # Re-centre before float32 so precision follows the scene's size, not its distance from 0.
@@ -168,7 +168,7 @@ class RayScene:
         if HAVE_EMBREE:
             self._scene = _new_embree_scene()
             if embree_direct.available(_new_embree_scene):
-                self._mesh = embree_direct.Triangles(self._scene, shifted(v, self._center), f)
+                self._mesh = embree_direct.Triangles(self._scene, v - self._center, f)
             else:
                 # The flat (m,3,3) constructor copies about 30% faster than the indexed one.
                 _EmbreeTriangles(self._scene, v[f] - self._center)
@@ -226,8 +226,7 @@ class RayScene:
             oo, dd, lo, hi = o, d, None, tmax
         else:
             lo = tmin[idx]
-            dd = d[idx]
-            oo, hi = along(o[idx], dd, lo), tmax[idx] - lo
+            oo, dd, hi = o[idx] + d[idx] * lo[:, None], d[idx], tmax[idx] - lo
         if self._scene is not None:
             tf, ff, uv = self._trace_embree(oo, dd, hi)
         else:
@@ -259,8 +258,8 @@ class RayScene:
         if self._scene is None:
             out[idx] = self._fallback(o[idx], d[idx], tmin[idx], tmax[idx])[1] >= 0
             return out
-        start = o[idx] if min_dist is None else along(o[idx], d[idx], tmin[idx])
-        org = shifted(start, self._center, np.float32)
+        start = o[idx] if min_dist is None else o[idx] + d[idx] * tmin[idx, None]
+        org = (start - self._center).astype(np.float32)
         dirs = d[idx].astype(np.float32)
         dist = _float32_dist(tmax[idx] - tmin[idx])
 
@@ -291,7 +290,7 @@ class RayScene:
         # in parallel with tracing too (numpy and embreex both release the GIL).
         def run(sl):
             oo, dd, hi = o[sl], d[sl], tmax[sl]
-            org = shifted(oo, self._center, np.float32)
+            org = np.ascontiguousarray(oo - self._center, dtype=np.float32)
             r = self._scene.run(org, np.ascontiguousarray(dd, dtype=np.float32), dists=_float32_dist(hi), output=1)
             face = r["primID"].astype(np.int64)
             hit = face >= 0
