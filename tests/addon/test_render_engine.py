@@ -220,6 +220,8 @@ def test_a_skirt_probes_as_far_as_the_resolve_takes_it_and_its_override_counts(e
     """S5 lower body: a 15 cm torso on 7 cm legs. A skirt's points on the legs are in the
     skirt segment, which reaches as far as the torso (its farthest linked part), as in the
     resolve; a trouser leg keeps its leg's radius. The panel's Skirt override reaches them."""
+    from scipy.spatial import cKDTree
+
     from sample_scenes.shapes import tube
     from tests.core.layered_cases import lower_body, mesh
 
@@ -230,8 +232,6 @@ def test_a_skirt_probes_as_far_as_the_resolve_takes_it_and_its_override_counts(e
     trouser.apply_translation([-0.09, 0.0, 0.0])
     objects = [(body.vertices, body.faces), (skirt.vertices, skirt.faces), (trouser.vertices, trouser.faces)]
     probes = engine.body_probes(objects, [0, 1, 2], parts=parts, scheme="S5")
-    from scipy.spatial import cKDTree
-
     on_legs = np.isin(parts[cKDTree(body.vertices).query(skirt.vertices)[1]], (3, 4))
     assert on_legs.sum() > len(on_legs) / 3
     np.testing.assert_allclose(probes[1][on_legs], 0.15, rtol=0.05)
