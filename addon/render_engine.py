@@ -91,7 +91,7 @@ def scene_arrays(depsgraph):
             parts, _ = body_parts(obj, settings.scheme, a.vertices, groups=False, depsgraph=depsgraph)
             if parts is not None and len(parts) != len(a.vertices):
                 parts = None
-    scheme = settings.scheme if parts is not None and settings.scheme != "NONE" else None
+    scheme = settings.scheme if parts is not None else None  # body_parts finds none without a scheme
     probe = body_probes(objects, layers, probe_distances(settings, parts is not None), parts, scheme)
     return LayeredScene(objects, layers, normals, probe_distance=probe, offset=settings.offset), materials, sources
 

@@ -114,7 +114,8 @@ class _SegmentScenes:
     def get_near(self, ids, points, reach):
         """(scene, ids): a scene over only those of the triangles ``ids`` within about ``reach``
         of some point (at least those: a voxel grid of that size decides), when that is under
-        half of the layer (built for one use); else the full scene. None if none is near."""
+        half of the layer (built for one use); else (the full scene, None: its own face
+        numbers). None if none is near."""
         lo, hi = self._face_boxes()
         lo, hi = lo[ids], hi[ids]
         centre = 0.5 * (lo + hi)
@@ -138,7 +139,7 @@ class _SegmentScenes:
         if not keep.any():
             return None
         if keep.sum() * 2 > len(self.faces) or self._full is not None:
-            return self.full(), np.arange(len(self.faces))
+            return self.full(), None
         self.built += 1
         return RayScene(self.vertices, self.faces[ids[keep]]), ids[keep]
 
