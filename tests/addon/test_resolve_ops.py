@@ -434,7 +434,7 @@ def test_falling_sheets_are_corrected_frame_by_frame_and_switching_off_gives_the
         after = _garment_overlaps(made)
         assert after == 0, (f, after)
         # what still shows through is left out; the rest moves at most a probe distance plus
-        # the offset twice (hem pass, then push-behind): 4 cm probes, 0.1% of the 5.7 m stage
+        # the offset twice (hem pass, then push-behind): the scene's probes, 0.1% of the 5.7 m stage
         reach = 2 * (scene.deformrt.probe_distance + 1e-3 * np.linalg.norm(np.ptp(evaluated(stage)[0], axis=0)))
         for o, v in zip(made, raw[f], strict=True):
             shown = evaluated(o)[0]
