@@ -7,10 +7,11 @@ from __future__ import annotations
 import hashlib
 
 import numpy as np
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from .correspondence import closest_point_on_triangles, incident_triangles, local_radius, surface_search, vertex_normals
-from .topology import topology_of
+from .topology import topology_of, vertex_adjacency
 
 _KEEP = 4
 _kept: dict = {}
@@ -37,7 +38,7 @@ class BodyFacts:
     def __init__(self, vertices, faces):
         # own read-only copies: what is kept must not change under the key it is kept by
         self.vertices, self.faces = _frozen(vertices), _frozen(faces)
-        self._normals = self._radius = self._search = None
+        self._normals = self._radius = self._search = self._pieces = None
         self._junctions = {}
 
     @property
@@ -59,6 +60,14 @@ class BodyFacts:
         if self._search is None:
             self._search = surface_search(self.vertices, self.faces, 8)
         return self._search
+
+    @property
+    def pieces(self) -> np.ndarray:
+        """Per vertex, which connected piece of the body mesh it is on (0..pieces-1)."""
+        if self._pieces is None:
+            adjacency = vertex_adjacency(self.faces, len(self.vertices))
+            self._pieces = _frozen(connected_components(adjacency, directed=False)[1].astype(np.int64))
+        return self._pieces
 
     def part_radius(self, segment, count: int) -> np.ndarray:
         """Each part's median radius (the seed's l_s per part), for ids 0..count-1 of one

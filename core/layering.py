@@ -13,7 +13,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import trimesh
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from .body_facts import body_facts
@@ -24,7 +23,7 @@ from .correspondence import (
 from .hidden_faces import crossing_faces
 from .rays import RayScene, step_past_hit
 from .segmentation import get_scheme, hull_normals, is_skirt, skirt_segments
-from .topology import ring_distance, topology_of, vertex_adjacency
+from .topology import ring_distance, topology_of
 from .vectors import norms
 
 
@@ -360,10 +359,10 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         raise ValueError("garments must be a list of meshes, inner to outer")
     garr = [_mesh_arrays(g, f"garments[{i}]") for i, g in enumerate(garments)]
     n_g = len(garr)
+    body = body_facts(bv, bf)
     if body_segments is None:
         # Separate pieces of the body (a figure modelled as parts) are separate segments.
-        _, body_seg = connected_components(vertex_adjacency(bf, len(bv)), directed=False)
-        body_seg = body_seg.astype(np.int64)
+        body_seg = body.pieces
     else:
         body_seg = np.asarray(body_segments)
         if body_seg.shape != (len(bv),) or not np.issubdtype(body_seg.dtype, np.integer) or (body_seg < 0).any():
@@ -403,7 +402,6 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
 
     # --- pre-processing: correspondence, global normals, segments, probe distance
     t0 = time.perf_counter()
-    body = body_facts(bv, bf)
     body_normals = body.normals
     probe = params.get("probe_distance")
     given = None if probe is None else np.broadcast_to(np.asarray(probe, dtype=np.float64), (n_seg,)).copy()

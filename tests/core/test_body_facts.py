@@ -22,6 +22,22 @@ def test_the_same_body_gives_the_same_facts_and_a_changed_one_new_facts():
     assert body_facts(moved, f) is not facts
 
 
+def test_pieces_are_the_connected_parts_of_the_body_mesh():
+    """Three balls, one of them with a vertex no face uses, against trimesh's own labelling."""
+    balls = [trimesh.creation.icosphere(subdivisions=2, radius=r).apply_translation((3 * i, 0, 0))
+             for i, r in enumerate((1.0, 0.5, 2.0))]
+    body = trimesh.util.concatenate(balls)
+    v = np.vstack([body.vertices, [[9.0, 9.0, 9.0]]])
+    f = np.asarray(body.faces)
+    pieces = body_facts(v, f).pieces
+    want = trimesh.graph.connected_component_labels(trimesh.Trimesh(v, f, process=False).face_adjacency, len(f))
+    on_faces = pieces[f[:, 0]]
+    pairs = np.unique(np.column_stack([on_faces, want]), axis=0)
+    assert len(pairs) == len(np.unique(want)) == len(np.unique(on_faces)) == 3  # the same partition
+    assert len(np.unique(pieces)) == 4 and pieces[-1] not in pieces[f].ravel()
+    assert not pieces.flags.writeable
+
+
 def test_junctions_follow_the_segmentation_they_are_asked_for():
     body = body_tube()
     v, f = np.asarray(body.vertices), np.asarray(body.faces)
