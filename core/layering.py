@@ -524,63 +524,66 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     def refresh(i):
         scenes[i] = _SegmentScenes(verts[i], layouts[i])
 
-    # --- boundary pass (Fig. 4.10): higher layers' hem points look outward for lower layers
-    t0 = time.perf_counter()
-    if params.get("boundary_pass", True) and n_g > 1:
-        for k in range(n_g - 1):  # the lower layer that may be tucked in
-            v, f = verts[k], faces[k]
-            if not len(f):
-                continue
-            # every higher layer's hem points at once: one scene of this layer near the hems
-            up = range(k + 1, n_g)
-            o = np.concatenate([verts[j][hems[j]] for j in up])
-            if not len(o):
-                continue
-            n_o = np.concatenate([normals[j][hems[j]] for j in up])
-            t, layer, face, r, _ = _trace_layers(o, n_o, np.concatenate([probe_len[j][hems[j]] for j in up]),
-                                                 np.concatenate([vseg2[j][hems[j]] for j in up]), scenes, [k],
-                                                 cull=True, facing=(normals, n_o))
-            rays["boundary"] += r
-            hit = layer == k
-            if not hit.any():
-                continue
-            hit_points = [o[hit] + n_o[hit] * t[hit, None]]
-            hit_amp = [t[hit] + d]
-            seeds = [f[face[hit]].ravel()]
-            spread = _spread_from_hits(v, f, topo[k], np.concatenate(hit_points), np.concatenate(hit_amp),
-                                       np.concatenate(seeds), params.get("falloff"))
-            idx = np.flatnonzero(spread > 0)
-            spread[idx] = body_floor(k, idx, spread[idx])
-            verts[k] = v - normals[k] * spread[:, None]
-            moved_by["boundary"] += int((spread > 0).sum())
-            refresh(k)
-    timings["boundary_pass_s"] = time.perf_counter() - t0
+    def tuck_under_hems(k):
+        """Boundary pass (Fig. 4.10): higher layers' hem points look outward for layer k."""
+        v, f = verts[k], faces[k]
+        up = range(k + 1, n_g)
+        o = np.concatenate([verts[j][hems[j]] for j in up])
+        if not len(f) or not len(o):
+            return
+        # every higher layer's hem points at once: one scene of this layer near the hems
+        n_o = np.concatenate([normals[j][hems[j]] for j in up])
+        t, layer, face, r, _ = _trace_layers(o, n_o, np.concatenate([probe_len[j][hems[j]] for j in up]),
+                                             np.concatenate([vseg2[j][hems[j]] for j in up]), scenes, [k],
+                                             cull=True, facing=(normals, n_o))
+        rays["boundary"] += r
+        hit = layer == k
+        if not hit.any():
+            return
+        spread = _spread_from_hits(v, f, topo[k], o[hit] + n_o[hit] * t[hit, None], t[hit] + d,
+                                   f[face[hit]].ravel(), params.get("falloff"))
+        idx = np.flatnonzero(spread > 0)
+        spread[idx] = body_floor(k, idx, spread[idx])
+        verts[k] = v - normals[k] * spread[:, None]
+        moved_by["boundary"] += int((spread > 0).sum())
+        refresh(k)
 
-    # --- push-behind: outer to inner, so each layer is pushed behind already-corrected ones
-    t0 = time.perf_counter()
+    def push_behind(k):
+        """Push-behind: every vertex of layer k behind the higher layers its probe meets."""
+        nonlocal push_trace_s
+        v = verts[k]
+        if not len(v):
+            return
+        # Probes start d outside the vertex, so a vertex less than d behind a higher layer
+        # is caught too: a hit at t means the layer is (t - d) behind, and moving by t
+        # leaves exactly d. Behind the farthest higher layer within reach, not the nearest.
+        t, layer, _, r, secs = _trace_layers(v + normals[k] * d, -normals[k], probe_len[k] + d, vseg2[k],
+                                             scenes, range(k + 1, n_g), farthest=True,
+                                             facing=(normals, normals[k]), skip=topo[k].loose)
+        rays["push"] += r
+        push_trace_s += secs
+        hit = layer >= 0
+        if hit.any():
+            idx = np.flatnonzero(hit)
+            t[idx] = body_floor(k, idx, t[idx])
+            verts[k] = v.copy()
+            verts[k][hit] -= normals[k][hit] * t[hit, None]
+            moved_by["push"] += int(hit.sum())
+            refresh(k)
+
+    # Outer to inner, each lower layer is tucked under, then pushed behind, higher layers where
+    # they end up: a higher layer moved after a lower one was fitted to it would undo the fit.
     push_trace_s = 0.0
-    if params.get("push_behind", True):
-        for k in range(n_g - 2, -1, -1):
-            v = verts[k]
-            if not len(v):
-                continue
-            # Probes start d outside the vertex, so a vertex less than d behind a higher layer
-            # is caught too: a hit at t means the layer is (t - d) behind, and moving by t
-            # leaves exactly d. Behind the farthest higher layer within reach, not the nearest.
-            t, layer, _, r, secs = _trace_layers(v + normals[k] * d, -normals[k], probe_len[k] + d, vseg2[k],
-                                                 scenes, range(k + 1, n_g), farthest=True,
-                                                 facing=(normals, normals[k]), skip=topo[k].loose)
-            rays["push"] += r
-            push_trace_s += secs
-            hit = layer >= 0
-            if hit.any():
-                idx = np.flatnonzero(hit)
-                t[idx] = body_floor(k, idx, t[idx])
-                verts[k] = v.copy()
-                verts[k][hit] -= normals[k][hit] * t[hit, None]
-                moved_by["push"] += int(hit.sum())
-                refresh(k)
-    timings["push_behind_s"] = time.perf_counter() - t0
+    timings["boundary_pass_s"] = timings["push_behind_s"] = 0.0
+    for k in range(n_g - 2, -1, -1):
+        t0 = time.perf_counter()
+        if params.get("boundary_pass", True):
+            tuck_under_hems(k)
+        t1 = time.perf_counter()
+        if params.get("push_behind", True):
+            push_behind(k)
+        timings["boundary_pass_s"] += t1 - t0
+        timings["push_behind_s"] += time.perf_counter() - t1
 
     # --- hidden-face removal (Fig. 4.14): triangles still crossing a higher layer
     t0 = time.perf_counter()
