@@ -122,6 +122,26 @@ def test_hem_boundary_pass_tucks_the_lower_layer_in_smoothly():
     assert tucked.stats["vertices_moved_boundary"] > 0
 
 
+def test_a_lower_layer_is_tucked_under_a_hem_where_the_hem_ends_up():
+    """A shirt, a vest ending at z = 0.2 and a jacket inside both: the jacket pushes the vest in,
+    so the shirt must be tucked under the vest's hem where the vest goes, not where it was."""
+    from sample_scenes.shapes import tube
+
+    body = body_tube()
+    shirt = mesh(*tube(0.18, 0.0, 0.6, n_around=40, n_along=40))
+    vest = mesh(*tube(0.175, 0.2, 0.6, n_around=40, n_along=27))
+    jacket = mesh(*tube(0.17, 0.0, 0.6, n_around=40, n_along=40))
+    res = resolve_layers(body, [shirt, vest, jacket])
+    d = res.stats["offset"]
+    radius = [np.hypot(*g.vertices[:, :2].T) for g in res.garments]
+    hem = np.isclose(vest.vertices[:, 2], 0.2)
+    near_hem = np.abs(shirt.vertices[:, 2] - 0.2) < 0.016  # the shirt's rings either side of it
+    assert radius[1][hem].max() < 0.17  # the vest went behind the jacket
+    assert radius[0][near_hem].max() < radius[1][hem].min() - 0.5 * d
+    again = resolve_layers(body, res.garments)
+    assert again.stats["vertices_moved_boundary"] == 0
+
+
 def test_already_correct_garments_are_left_alone():
     from sample_scenes.shapes import tube
 
