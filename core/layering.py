@@ -3,6 +3,8 @@
 Stages, in the seed's order: correspondence and global normals (pre-processing), the
 boundary pass (smooth tuck-in of lower layers under higher layers' hems, Fig. 4.10),
 push-behind (layered ray tracing for mesh deformation), hidden-face removal (Fig. 4.14).
+The middle two run layer by layer, outer to inner, so each layer is fitted to the higher
+layers where they end up.
 Inputs are never modified; every stage works on copies.
 """
 
