@@ -61,6 +61,7 @@ def measure(name, size):
     # simple and layered frames taken in turn, so the machine's drift (+-10% here) falls on both
     walls = {False: [], True: []}
     parts = {False: [], True: []}
+    counts = {}
     for _ in range(RUNS):
         for layered in (False, True):
             scene.deformrt.render_layered = layered
@@ -71,16 +72,16 @@ def measure(name, size):
             tracer = engine.FrameTracer(bpy.context.evaluated_depsgraph_get(), size, size)
             img, _ = tracer.rows(0, size)
             parts[layered].append((tracer.seconds["read_build_s"], tracer.seconds["trace_s"]))
+            counts[layered] = (img.stats["rays"] + img.stats["shadow_rays"], float(img.fixed.mean()))
     for layered in (False, True):
         scene.deformrt.render_layered = layered
         key = "layered" if layered else "simple"
         row[f"{key}_s"] = statistics.median(walls[layered])
         row[f"{key}_read_build_s"] = statistics.median(p[0] for p in parts[layered])
         row[f"{key}_trace_s"] = statistics.median(p[1] for p in parts[layered])
-        tracer = engine.FrameTracer(bpy.context.evaluated_depsgraph_get(), size, size)
-        img, _ = tracer.rows(0, size)
-        row[f"{key}_rays"] = img.stats["rays"] + img.stats["shadow_rays"]
-        row["fixed"] = float(img.fixed.mean())
+        row[f"{key}_rays"], fixed = counts[layered]
+        if layered:
+            row["fixed"] = fixed
         index[key] = studio.render_passes(scene, folder, ("IndexOB",))["IndexOB"]
         if key == "layered" and size >= 400:
             studio.render_passes(scene, folder, ("Image",))  # warm, then keep the picture
