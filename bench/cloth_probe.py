@@ -11,27 +11,22 @@ sheets lying that far over higher ones. Writes its table into docs/REPORT.md.
 """
 
 import argparse
-import time
 
 import numpy as np
 
 from bench.blender import load_package
+from bench.cloth_table import baked_sheets, corrected_frame, release
 from bench.report import machine, table, write_section
 
 DEPTH = 0.05
 
 
 def run(frames, probes, measured):
-    import bpy
-    from deformrt.addon import frame_handler, layer_resolve, mesh_io
+    from deformrt.addon import frame_handler, layer_resolve
     from deformrt.core import metrics
-    from deformrt.sample_scenes import sheets
 
-    made, _ = sheets.build(layers=4, per_sheet=8192, frames=frames)
-    scene = bpy.context.scene
+    made, scene, _ = baked_sheets(4, 8192, frames)
     default = scene.deformrt.probe_distance
-    scene.deformrt.resolve_on_frame_change = False
-    bpy.ops.ptcache.bake_all(bake=True)
     rows = []
     for probe in probes:
         scene.deformrt.probe_distance = probe
@@ -41,12 +36,7 @@ def run(frames, probes, measured):
         acc = []
         for f in measured:
             scene.frame_set(f)
-            with layer_resolve.results_bypassed(made):
-                before = [mesh_io.read_mesh(o, bpy.context.evaluated_depsgraph_get()) for o in made]
-            t0 = time.perf_counter()
-            summary = frame_handler.correct_frame(scene)
-            seconds = time.perf_counter() - t0
-            after = [mesh_io.read_mesh(o, bpy.context.evaluated_depsgraph_get()) for o in made]
+            before, after, summary, seconds = corrected_frame(scene, made)
             layers = [(a.vertices, a.triangles) for a in after]
             center, radius = metrics.layer_bounds([(b.vertices, b.triangles) for b in before])
             views = metrics.camera_ring(center, radius, elevations_deg=(35.0, 60.0))
@@ -62,8 +52,7 @@ def run(frames, probes, measured):
                      f"{100 * a[:, 3].mean():.1f}", f"{100 * a[:, 2].max():.1f}", f"{100 * a[:, 4].mean():.1f}",
                      int(a[:, 5].sum())))
         print(rows[-1], flush=True)
-    layer_resolve.clear_scene(scene)
-    bpy.ops.ptcache.free_bake_all()
+    release(scene)
     return rows
 
 

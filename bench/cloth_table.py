@@ -19,37 +19,60 @@ from bench.blender import load_package
 from bench.report import REPORT, machine, table, write_section
 
 
-def run_case(layers, per_sheet, frames):
+def baked_sheets(layers, per_sheet, frames):
+    """Sample scene (d) with its cloth baked, as the user is told to have it (adding DeformRT's
+    modifier would reset an unbaked cache): (sheets, scene, seconds the bake took)."""
     import bpy
-    from deformrt.addon import frame_handler, layer_resolve, mesh_io
-    from deformrt.core import metrics
     from deformrt.sample_scenes import sheets
 
     made, _ = sheets.build(layers=layers, per_sheet=per_sheet, frames=frames)
     scene = bpy.context.scene
     scene.deformrt.resolve_on_frame_change = False
-    # a baked cache, as the user is told to have: adding DeformRT's modifier would reset an unbaked one
     t0 = time.perf_counter()
     bpy.ops.ptcache.bake_all(bake=True)
-    sim = [(time.perf_counter() - t0) / frames] * frames
+    return made, scene, time.perf_counter() - t0
+
+
+def corrected_frame(scene, made):
+    """The sheets of the current frame as simulated, then corrected through the frame handler's
+    path: (before, after, the resolve's summary, seconds the correction took)."""
+    import bpy
+    from deformrt.addon import frame_handler, layer_resolve, mesh_io
+
+    with layer_resolve.results_bypassed(made):
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        before = [mesh_io.read_mesh(o, depsgraph) for o in made]
+    t0 = time.perf_counter()
+    summary = frame_handler.correct_frame(scene)
+    seconds = time.perf_counter() - t0
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    return before, [mesh_io.read_mesh(o, depsgraph) for o in made], summary, seconds
+
+
+def release(scene):
+    """Take DeformRT's results off the scene and free the cloth bake."""
+    import bpy
+    from deformrt.addon import layer_resolve
+
+    layer_resolve.clear_scene(scene)
+    bpy.ops.ptcache.free_bake_all()
+
+
+def run_case(layers, per_sheet, frames):
+    from deformrt.addon import layer_resolve
+    from deformrt.core import metrics
+
+    made, scene, bake_s = baked_sheets(layers, per_sheet, frames)
     layer_resolve.forget_correspondence()
     rows = []
     for f in range(1, frames + 1):
         scene.frame_set(f)
-        with layer_resolve.results_bypassed(made):
-            depsgraph = bpy.context.evaluated_depsgraph_get()
-            before = [mesh_io.read_mesh(o, depsgraph) for o in made]
-        t0 = time.perf_counter()
-        summary = frame_handler.correct_frame(scene)
-        corr = time.perf_counter() - t0
+        before, after, summary, corr = corrected_frame(scene, made)
         report = {**summary.seconds, **{k: v for k, v in summary.stats.items() if k.endswith("_s")}}
-        depsgraph = bpy.context.evaluated_depsgraph_get()
-        after = [mesh_io.read_mesh(o, depsgraph) for o in made]
         cb = metrics.layer_crossings([(a.vertices, a.triangles) for a in before]) if layers > 1 else np.zeros((1, 1))
         ca = metrics.layer_crossings([(a.vertices, a.triangles) for a in after]) if layers > 1 else np.zeros((1, 1))
-        rows.append((f, sim[f - 1], corr, int(np.triu(cb).sum()), int(np.triu(ca).sum()), report))
-    layer_resolve.clear_scene(scene)
-    bpy.ops.ptcache.free_bake_all()
+        rows.append((f, bake_s / frames, corr, int(np.triu(cb).sum()), int(np.triu(ca).sum()), report))
+    release(scene)
     return rows
 
 
