@@ -4,8 +4,10 @@ embreex builds a mesh by copying it vertex by vertex through Python-level array 
 about 0.9 us per triangle, five times what Embree's own BVH build then takes, and it has no
 way to move a mesh. Here the same Embree library that embreex loaded is called through
 ctypes: the geometry shares numpy buffers (rtcSetSharedGeometryBuffer), and a deforming mesh
-is written in place and committed again instead of being made anew. Tracing stays with
-embreex, on the very scene embreex made.
+is written in place and committed again instead of being made anew. Some of a mesh's
+triangles can also be made an Embree scene of their own (a ``Group``) and instanced into
+an embreex scene: several scenes over overlapping sets of one mesh's triangles then build
+each triangle once. Tracing stays with embreex, on the very scene embreex made.
 
 This reads the scene handle out of embreex's EmbreeScene object, so it checks the object
 layout it relies on (and that a ray really hits what it attached) once per process. Anything
@@ -21,10 +23,13 @@ import os
 import numpy as np
 
 _RTC_GEOMETRY_TYPE_TRIANGLE = 0
+_RTC_GEOMETRY_TYPE_INSTANCE = 121
 _RTC_BUFFER_TYPE_INDEX = 0
 _RTC_BUFFER_TYPE_VERTEX = 1
 _RTC_FORMAT_UINT3 = 0x5003
 _RTC_FORMAT_FLOAT3 = 0x9003
+_RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR = 0x9234
+_IDENTITY = np.array([1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0], np.float32)  # 3x4, column by column
 
 _lib = None
 _scene_offset = None
@@ -52,6 +57,12 @@ def _load_library():
                     "rtcCommitGeometry": (None, [vp]),
                     "rtcAttachGeometry": (u32, [vp, vp]),
                     "rtcReleaseGeometry": (None, [vp]),
+                    "rtcAttachGeometryByID": (None, [vp, vp, u32]),
+                    "rtcNewScene": (vp, [vp]),
+                    "rtcCommitScene": (None, [vp]),
+                    "rtcReleaseScene": (None, [vp]),
+                    "rtcSetGeometryInstancedScene": (None, [vp, vp]),
+                    "rtcSetGeometryTransform": (None, [vp, u32, ctypes.c_int, vp]),
                 }
                 for name, (res, args) in signatures.items():
                     fn = getattr(lib, name)
@@ -78,9 +89,8 @@ class Triangles:
     builds the BVH again on the next ray: its REFIT quality measured no faster here)."""
 
     def __init__(self, scene, vertices, faces):
-        handle = ctypes.c_void_p.from_address(id(scene) + _scene_offset).value
-        device = _lib.rtcGetSceneDevice(handle)
-        self._scene = scene
+        device = _lib.rtcGetSceneDevice(_handle(scene))
+        self._scene, self._device = scene, device
         # Embree reads vertices as 16-byte loads: one float of padding past the last vertex
         self._vbuf = np.zeros(3 * len(vertices) + 1, np.float32)
         self.vertices = self._vbuf[:-1].reshape(-1, 3)
@@ -94,7 +104,7 @@ class Triangles:
         _lib.rtcSetSharedGeometryBuffer(geom, _RTC_BUFFER_TYPE_INDEX, 0, _RTC_FORMAT_UINT3,
                                         self._faces.ctypes.data, 0, 12, len(self._faces))
         _lib.rtcCommitGeometry(geom)
-        _lib.rtcAttachGeometry(handle, geom)
+        _lib.rtcAttachGeometry(_handle(scene), geom)
         self._geom = geom  # the scene holds the reference from here on
         _lib.rtcReleaseGeometry(geom)
 
@@ -105,10 +115,60 @@ class Triangles:
         self._scene.is_committed = 0  # embreex commits the scene again before the next ray
 
 
+class Group:
+    """Faces ``start..stop-1`` of a ``Triangles`` mesh as an Embree scene of their own, built
+    now, sharing the mesh's buffers. Its one geometry has the ID ``geom_id``, which a hit
+    through an instance of it reports as its geomID. The mesh must not move while the group
+    is used: the group's BVH is not built again."""
+
+    def __init__(self, mesh: Triangles, start: int, stop: int, geom_id: int):
+        self._mesh = mesh  # holds the shared buffers
+        self.handle = _lib.rtcNewScene(mesh._device)
+        if not self.handle:
+            raise RuntimeError("Embree could not make a scene")
+        geom = _lib.rtcNewGeometry(mesh._device, _RTC_GEOMETRY_TYPE_TRIANGLE)
+        if not geom:
+            raise RuntimeError("Embree could not make a triangle geometry")
+        _lib.rtcSetSharedGeometryBuffer(geom, _RTC_BUFFER_TYPE_VERTEX, 0, _RTC_FORMAT_FLOAT3,
+                                        mesh._vbuf.ctypes.data, 0, 12, len(mesh.vertices))
+        _lib.rtcSetSharedGeometryBuffer(geom, _RTC_BUFFER_TYPE_INDEX, 0, _RTC_FORMAT_UINT3,
+                                        mesh._faces.ctypes.data, 12 * start, 12, stop - start)
+        _lib.rtcCommitGeometry(geom)
+        _lib.rtcAttachGeometryByID(self.handle, geom, geom_id)
+        _lib.rtcReleaseGeometry(geom)
+        _lib.rtcCommitScene(self.handle)
+
+    def __del__(self):
+        if _lib is not None and getattr(self, "handle", None):
+            _lib.rtcReleaseScene(self.handle)
+
+
+def instance(scene, groups) -> None:
+    """Put each group into an empty embreex scene as an instance in place (Embree keeps each
+    group's scene alive while an instance holds it)."""
+    handle = _handle(scene)
+    device = _lib.rtcGetSceneDevice(handle)
+    for group in groups:
+        geom = _lib.rtcNewGeometry(device, _RTC_GEOMETRY_TYPE_INSTANCE)
+        if not geom:
+            raise RuntimeError("Embree could not make an instance")
+        _lib.rtcSetGeometryInstancedScene(geom, group.handle)
+        _lib.rtcSetGeometryTransform(geom, 0, _RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, _IDENTITY.ctypes.data)
+        _lib.rtcCommitGeometry(geom)
+        _lib.rtcAttachGeometry(handle, geom)
+        _lib.rtcReleaseGeometry(geom)
+    scene.is_committed = 0
+
+
+def _handle(scene):
+    return ctypes.c_void_p.from_address(id(scene) + _scene_offset).value
+
+
 def available(new_scene) -> bool:
     """Whether direct geometry works in this process; ``new_scene()`` makes an empty embreex
     EmbreeScene. Checked once: a ray must hit an attached triangle, miss beside it, and hit
-    there once the triangle is moved larger."""
+    there once the triangle is moved larger; through an instance of a group of that one
+    triangle it must name the group's geometry and the triangle's place in the group."""
     global _lib, _scene_offset, _state
     if _state != "unchecked":
         return _state == "on"
@@ -122,13 +182,16 @@ def available(new_scene) -> bool:
         tri = Triangles(scene, np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [5, 5, 5]], float),
                         np.array([[3, 3, 3], [0, 1, 2]]))
 
-        def first_face(x):
+        def first_hit(target, x):
             o = np.array([[x, x, 1.0]], np.float32)
-            return int(scene.run(o, np.array([[0, 0, -1.0]], np.float32), output=1)["primID"][0])
+            r = target.run(o, np.array([[0, 0, -1.0]], np.float32), output=1)
+            return int(r["geomID"][0]), int(r["primID"][0])
 
-        before = first_face(0.25), first_face(0.75)
+        before = first_hit(scene, 0.25)[1], first_hit(scene, 0.75)[1]
         tri.move(np.array([[0, 0, 0], [2, 0, 0], [0, 2, 0], [5, 5, 5]], float))
-        if before == (1, -1) and first_face(0.75) == 1:
+        group, top = Group(tri, 1, 2, geom_id=7), new_scene()
+        instance(top, [group])
+        if before == (1, -1) and first_hit(scene, 0.75)[1] == 1 and first_hit(top, 0.75) == (7, 0):
             _state = "on"
     except (OSError, AttributeError, ValueError, RuntimeError, TypeError):
         _state = "off"

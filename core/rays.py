@@ -154,6 +154,10 @@ class RayScene:
         self.faces = f
         self._face_normals = None
         self._planes = None
+        self._plane_owner = self  # a part reads its parent's planes: it names the parent's faces
+        self._face_base = self._face_map = self._parent = None
+        self._groups, self._group_start = {}, []  # the BVHs parts instance, dropped on a move
+        self._moves = getattr(self, "_moves", -1) + 1
         if in_place:
             self._mesh.move(v - self._center)
             return
@@ -179,6 +183,8 @@ class RayScene:
         """New positions for the same faces: written into the buffers Embree shares and
         committed again, unless the scene moved far from the centre it was built about (float32
         round-off grows with that distance), when it is built afresh."""
+        if self._parent is not None:
+            raise RuntimeError("a part of a scene cannot move: make it again from the moved scene")
         v = np.asarray(vertices)
         in_place = self._mesh is not None and v.shape == self.vertices.shape and np.isfinite(v).all()
         if in_place:
@@ -186,6 +192,54 @@ class RayScene:
             lo, hi = used.min(0), used.max(0)
             in_place = np.linalg.norm(0.5 * (lo + hi) - self._center) <= np.linalg.norm(hi - lo)
         self._set_vertices(vertices, in_place=in_place)
+
+    def part(self, ranges) -> RayScene:
+        """A scene of some of this scene's triangles, given as ``(start, stop)`` ranges of face
+        ids, sharing this scene's vertices; its hits name this scene's faces. Each range is
+        built once, into an Embree scene of its own that every part holding it instances, so
+        parts over overlapping sets of triangles (what is worn over each layer) build no
+        triangle twice. A part does not follow ``update``: make it again from the moved scene."""
+        ranges = sorted({(int(a), int(b)) for a, b in ranges if int(b) > int(a)})
+        if any(a < 0 or b > len(self.faces) for a, b in ranges):
+            raise ValueError(f"face ranges must lie in 0..{len(self.faces)}, got {ranges}")
+        if not ranges:
+            return RayScene(np.zeros((0, 3)), np.zeros((0, 3), np.int64), threads=self.threads)
+        part = object.__new__(RayScene)
+        part.threads, part.vertices, part.faces, part._used = self.threads, self.vertices, self.faces, self._used
+        part._face_normals = part._planes = part._mesh = part._fallback = part._face_map = part._face_base = None
+        part._plane_owner, part._parent, part._parent_moves = self._plane_owner, self, self._moves
+        part._groups, part._group_start, part._moves = {}, [], 0
+        if self._mesh is not None:
+            groups = [self._group(a, b) for a, b in ranges]
+            part._scene = _new_embree_scene()
+            embree_direct.instance(part._scene, groups)
+            part._center, part._held = self._center, groups
+            part._face_base = np.asarray(self._group_start, np.int64)  # geomID -> first face
+        else:
+            keep = np.concatenate([np.arange(a, b) for a, b in ranges])
+            flat = RayScene(self.vertices, self.faces[keep], threads=self.threads)
+            part._scene, part._fallback, part._center, part._held = flat._scene, flat._fallback, flat._center, flat
+            part._face_map = keep
+        return part
+
+    def _group(self, start, stop):
+        """Faces start..stop-1 as an Embree scene of their own (built on first use, kept)."""
+        if (start, stop) not in self._groups:
+            self._groups[start, stop] = embree_direct.Group(self._mesh, start, stop, geom_id=len(self._group_start))
+            self._group_start.append(start)
+        return self._groups[start, stop]
+
+    def _check_fresh(self):
+        if self._parent is not None and self._parent._moves != self._parent_moves:
+            raise RuntimeError("the scene this part was made from has moved since: make the part again")
+
+    def _to_faces(self, prim, geom):
+        """Embree's (or the fallback's) primitive ids -> this scene's face ids (-1 stays)."""
+        if self._face_base is not None:
+            return np.where(prim >= 0, self._face_base[np.maximum(geom, 0)] + prim, -1)
+        if self._face_map is not None:
+            return np.where(prim >= 0, self._face_map[np.maximum(prim, 0)], -1)
+        return prim
 
     @property
     def face_normals(self) -> np.ndarray:
@@ -209,6 +263,7 @@ class RayScene:
         Directions need not be unit; ``t`` is in the units of the vertices. A miss has ``t``
         inf, ``face`` -1 and ``bary`` (0, 0).
         """
+        self._check_fresh()
         o, d = _as_rays(origins, directions)
         n = len(o)
         tmax = _as_range("max_dist", max_dist, n, np.inf)
@@ -231,6 +286,7 @@ class RayScene:
             tf, ff, uv = self._trace_embree(oo, dd, hi)
         else:
             tf, ff = self._fallback(oo, dd, np.zeros(len(oo)), hi)
+            ff = self._to_faces(ff, None)
             hit = ff >= 0
             tf[hit] = self._refine_t(oo[hit], dd[hit], ff[hit], tf[hit], hi[hit])
             uv = np.zeros((len(ff), 2))
@@ -245,6 +301,7 @@ class RayScene:
 
     def occluded(self, origins, directions, max_dist=None, min_dist=None) -> np.ndarray:
         """True where something lies between ``min_dist`` and ``max_dist`` along the ray."""
+        self._check_fresh()
         o, d = _as_rays(origins, directions)
         n = len(o)
         tmax = _as_range("max_dist", max_dist, n, np.inf)
@@ -292,7 +349,7 @@ class RayScene:
             oo, dd, hi = o[sl], d[sl], tmax[sl]
             org = np.ascontiguousarray(oo - self._center, dtype=np.float32)
             r = self._scene.run(org, np.ascontiguousarray(dd, dtype=np.float32), dists=_float32_dist(hi), output=1)
-            face = r["primID"].astype(np.int64)
+            face = self._to_faces(r["primID"].astype(np.int64), r["geomID"])
             hit = face >= 0
             idx = np.flatnonzero(hit)  # integer takes: boolean indexing of (n, 3) rows is slower
             t = np.full(len(face), np.inf)
@@ -310,6 +367,8 @@ class RayScene:
         """Per face (all, or just ``face``), the unnormalised normal, its dot with the first
         corner and its length. All faces are done once per scene and kept, so a hit's float64
         distance is a gather and a few products; a few hits on a big scene do only their own."""
+        if self._plane_owner is not self:
+            return self._plane_owner._plane_of(face)
         asked = len(self.faces) if face is None or isinstance(face, slice) else len(face)
         if self._planes is None and asked * 4 < len(self.faces):
             return self._planes_for(self.faces[face])

@@ -257,3 +257,46 @@ def test_numpy_fallback_gives_the_same_hits(rng, monkeypatch):
     assert agree.mean() > 0.995
     both = agree & embree.hit
     np.testing.assert_allclose(numpy_hits.t[both], embree.t[both], rtol=1e-6, atol=1e-9)
+
+
+@pytest.mark.parametrize("direct", ["on", "off"])
+def test_parts_answer_as_brute_force_over_their_faces_and_name_the_whole_scenes_faces(rng, monkeypatch, direct):
+    """A part over some face ranges hits what Möller–Trumbore finds among those faces alone and
+    names them by their ids in the whole scene; with Embree instancing (direct on) overlapping
+    parts build each range once, and without it (off) the part is a scene of its own."""
+    if direct == "off":
+        monkeypatch.setattr(embree_direct, "_state", "off")
+    v, f = random_soup(rng, n_tri=900)
+    o, d = random_rays(rng, 2000)
+    scene = RayScene(v, f)
+    tmax = rng.uniform(0.5, 3.0, len(o))
+    for ranges in ([(300, 900)], [(600, 900)], [(0, 300), (600, 900)]):
+        part = scene.part(ranges)
+        keep = np.concatenate([np.arange(a, b) for a, b in ranges])
+        got = part.intersect(o, d, max_dist=tmax)
+        t_ref, f_ref = moller_trumbore(o, d, v, f[keep], 0.0, tmax)
+        agree = got.hit == (f_ref >= 0)
+        assert agree.mean() > 0.99 and got.hit.mean() > 0.2
+        both = agree & got.hit
+        np.testing.assert_allclose(got.t[both], t_ref[both], rtol=1e-9, atol=1e-9)
+        same = both & np.isclose(got.t, t_ref, rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(got.face[same], keep[f_ref[same]])  # ids of the whole scene
+        assert np.isin(got.face[got.hit], keep).all()
+        np.testing.assert_array_equal(part.occluded(o, d, max_dist=tmax), got.hit)
+        tri = v[f[got.face[both]]]
+        np.testing.assert_allclose(got.normal[both], _unit(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])),
+                                   atol=1e-9)
+    if direct == "on":
+        assert len(scene._groups) == 3  # (300, 900), (600, 900), (0, 300): none built twice
+    assert not scene.part([]).intersect(o, d).hit.any()
+    with pytest.raises(ValueError, match="face ranges"):
+        scene.part([(0, 901)])
+    scene.update(v * 1.01)
+    with pytest.raises(RuntimeError, match="make the part again"):
+        part.intersect(o, d)
+    with pytest.raises(RuntimeError, match="cannot move"):
+        part.update(v)
+
+
+def _unit(n):
+    return n / np.linalg.norm(n, axis=1, keepdims=True)
