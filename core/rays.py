@@ -270,10 +270,10 @@ class RayScene:
         t = np.full(n, np.inf)
         face = np.full(n, -1, dtype=np.int64)
         bary = np.zeros((n, 2))
-        if min_dist is None and (max_dist is None or (tmax >= 0).all()):
+        tmin = _as_range("min_dist", min_dist, n, 0.0)
+        if not tmin.any() and (max_dist is None or (tmax >= 0).all()):
             tmin, idx = None, None  # every ray traced as given: no index copies
         else:
-            tmin = _as_range("min_dist", min_dist, n, 0.0)
             idx = np.flatnonzero(tmax >= tmin)
         if not len(self.faces) or (idx is not None and not len(idx)):
             return RayHits(t, face, bary, self.normals_of)
