@@ -24,6 +24,7 @@ import numpy as np
 
 _RTC_GEOMETRY_TYPE_TRIANGLE = 0
 _RTC_GEOMETRY_TYPE_INSTANCE = 121
+_RTC_SCENE_FLAG_ROBUST = 1 << 2
 _RTC_BUFFER_TYPE_INDEX = 0
 _RTC_BUFFER_TYPE_VERTEX = 1
 _RTC_FORMAT_UINT3 = 0x5003
@@ -59,6 +60,7 @@ def _load_library():
                     "rtcReleaseGeometry": (None, [vp]),
                     "rtcAttachGeometryByID": (None, [vp, vp, u32]),
                     "rtcNewScene": (vp, [vp]),
+                    "rtcSetSceneFlags": (None, [vp, ctypes.c_int]),
                     "rtcCommitScene": (None, [vp]),
                     "rtcReleaseScene": (None, [vp]),
                     "rtcSetGeometryInstancedScene": (None, [vp, vp]),
@@ -126,6 +128,7 @@ class Group:
         self.handle = _lib.rtcNewScene(mesh._device)
         if not self.handle:
             raise RuntimeError("Embree could not make a scene")
+        _lib.rtcSetSceneFlags(self.handle, _RTC_SCENE_FLAG_ROBUST)
         geom = _lib.rtcNewGeometry(mesh._device, _RTC_GEOMETRY_TYPE_TRIANGLE)
         if not geom:
             raise RuntimeError("Embree could not make a triangle geometry")

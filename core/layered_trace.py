@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .correspondence import closest_point_on_triangles, vertex_normals
+from .correspondence import vertex_normals
 from .rays import RayScene
 
 
@@ -88,11 +88,6 @@ class LayeredScene:
         """Global face ids -> (object, face within it)."""
         obj = np.where(face >= 0, self.face_object[np.maximum(face, 0)], -1)
         return obj, np.where(face >= 0, face - self.first_face[np.maximum(obj, 0)], -1)
-
-    def _bary(self, global_face, points):
-        """(u, v) of points on the given triangles of the combined scene."""
-        v = self.scene.vertices[self.scene.faces[global_face]]
-        return closest_point_on_triangles(points, v[:, 0], v[:, 1], v[:, 2])[:, 1:]
 
     def stack(self, per_vertex):
         """One array per object (a number or a vector per vertex) -> one array indexed as the
@@ -172,28 +167,26 @@ class LayeredScene:
         return out
 
     def _scene_of(self, ids):
-        """One ray scene over the given objects."""
-        return RayScene(np.vstack([self.vertices[i] for i in ids]),
-                        _stack_faces([self.faces[i] for i in ids], [len(self.vertices[i]) for i in ids]))
+        """The combined scene's part over the given objects (hits name the combined scene's
+        faces); each object's triangles are built once for all the parts that hold them."""
+        return self.scene.part([(self.first_face[i], self.first_face[i + 1]) for i in ids])
 
     def _cover(self, layer):
-        """(ray scene of what is worn over ``layer``, its faces' ids in the combined scene)."""
+        """The ray scene of what is worn over ``layer``."""
         if layer not in self._layer_scenes:
-            ids = self._cover_ids[layer]
-            scene = self._scene_of(ids)
-            to_global = np.concatenate([self.first_face[i] + np.arange(len(self.faces[i])) for i in ids])
-            self._layer_scenes[layer] = (scene, to_global)
+            self._layer_scenes[layer] = self._scene_of(self._cover_ids[layer])
         return self._layer_scenes[layer]
 
     def _uncovered_scene(self, rays):
         """A ray scene of the objects nothing is worn over; None when that is every object or
-        none, or while fewer rays ask than it has triangles (building it would cost more than
-        the rays it settles save)."""
+        none, or while fewer rays ask than it has triangles not yet built for a cover (building
+        them would cost more than the rays it settles save)."""
         if self._uncovered is None:
             ids = [i for i, lay in enumerate(self.layers) if not self._has_cover[-1 if lay is None else lay]]
+            built = {i for layer in self._layer_scenes for i in self._cover_ids[layer]}
             if not ids or len(ids) == len(self.layers):
                 self._uncovered = False
-            elif rays < sum(len(self.faces[i]) for i in ids):
+            elif rays < sum(len(self.faces[i]) for i in ids if i not in built):
                 return None
             else:
                 self._uncovered = self._scene_of(ids)
@@ -212,6 +205,7 @@ class LayeredScene:
         min_dist = np.broadcast_to(np.asarray(min_dist, float), (n,)).copy()
         cover_t = np.full(n, np.inf)  # the covering layer met just behind an ignored hit
         cover_face = np.full(n, -1)
+        cover_bary = np.zeros((n, 2))
         for _ in range(max_skips + 1):
             if not len(todo):
                 break
@@ -221,8 +215,7 @@ class LayeredScene:
             if nearer.any():
                 hits.t[nearer] = cover_t[todo][nearer]
                 hits.face[nearer] = cover_face[todo][nearer]
-                hits.bary[nearer] = self._bary(cover_face[todo][nearer], o[todo][nearer]
-                                               + d[todo][nearer] * hits.t[nearer, None])
+                hits.bary[nearer] = cover_bary[todo][nearer]
             obj, face = self.split(hits.face)
             hit = hits.face >= 0
             rejected = np.zeros(len(todo), bool)
@@ -243,7 +236,7 @@ class LayeredScene:
                         cand, p = cand[near], p[near]
                         if not len(cand):
                             continue
-                    scene, to_global = self._cover(layer)
+                    scene = self._cover(layer)
                     g = self.global_normal(obj[cand], face[cand], hits.bary[cand])
                     # a probe from just outside: a higher layer at the same place is in front
                     start = p + g * self.offset
@@ -252,10 +245,18 @@ class LayeredScene:
                     rejected[cand] = covered
                     if covered.any():
                         c = cand[covered]
+                        # only a covering layer within the skip distance: the next round meets
+                        # anything farther. Short occlusion rays first, as layers rarely coincide.
                         back = p[covered] - d[todo[c]] * self.eps
-                        again_hits = scene.intersect(back, d[todo[c]])
-                        cover_t[todo[c]] = np.where(again_hits.hit, np.maximum(again_hits.t - self.eps, 0.0), np.inf)
-                        cover_face[todo[c]] = np.where(again_hits.hit, to_global[np.maximum(again_hits.face, 0)], -1)
+                        close = scene.occluded(back, d[todo[c]], max_dist=3 * self.eps)
+                        cover_t[todo[c]] = np.inf
+                        if close.any():
+                            c, back = c[close], back[close]
+                            again_hits = scene.intersect(back, d[todo[c]], max_dist=3 * self.eps)
+                            cover_t[todo[c]] = np.where(again_hits.hit, np.maximum(again_hits.t - self.eps, 0.0),
+                                                        np.inf)
+                            cover_face[todo[c]] = again_hits.face
+                            cover_bary[todo[c]] = again_hits.bary
             # every ray not ignored is done: its hit, or nothing (rejected rays all hit)
             shown = ~rejected
             done = todo[shown]
