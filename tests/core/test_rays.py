@@ -300,3 +300,26 @@ def test_parts_answer_as_brute_force_over_their_faces_and_name_the_whole_scenes_
 
 def _unit(n):
     return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
+def test_a_part_is_watertight_along_the_edges_and_corners_its_triangles_share():
+    """Rays straight down through every vertex and edge midpoint of a grid's inside all hit a
+    part holding the grid: none slips between the triangles that share that edge or corner."""
+    n = 11
+    s = np.linspace(-0.5, 0.5, n)
+    x, y = np.meshgrid(s, s)
+    grid = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])
+    i, j = np.meshgrid(np.arange(n - 1), np.arange(n - 1), indexing="ij")
+    a = (i * n + j).ravel()
+    f = np.concatenate([np.stack([a, a + 1, a + n + 1], -1), np.stack([a, a + n + 1, a + n], -1)])
+    other = grid + [0.0, 0.0, 0.03]  # another object of the scene, above it
+    scene = RayScene(np.vstack([other, grid]), np.vstack([f, f + len(grid)]))
+    part = scene.part([(len(f), 2 * len(f))])
+    inner = np.linspace(-0.4, 0.4, 2 * (n - 3) + 1)  # vertices and the midpoints between them
+    gx, gy = np.meshgrid(inner, inner)
+    o = np.column_stack([gx.ravel(), gy.ravel(), np.full(gx.size, 0.01)])
+    d = np.tile([0.0, 0.0, -1.0], (len(o), 1))
+    assert part.occluded(o, d, max_dist=0.02).all()
+    hits = part.intersect(o, d, max_dist=0.02)
+    assert (hits.face >= len(f)).all()
+    np.testing.assert_allclose(hits.t, 0.01, atol=1e-9)
