@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .correspondence import vertex_normals
-from .rays import RayScene
+from .rays import RayHits, RayScene
 
 
 @dataclass
@@ -156,7 +156,8 @@ class LayeredScene:
             out[ask[rest & ~self._has_cover[layer]]] = True
             check = rest & self._has_cover[layer]
             if check.any():
-                out[ask[check]] = self.first_visible(o[check], d[check]).t < dist[check]
+                known = RayHits(hits.t[check], hits.face[check], hits.bary[check], self.scene.normals_of)
+                out[ask[check]] = self.first_visible(o[check], d[check], first=known).t < dist[check]
             if not poke.any():
                 break
             step = hits.t[poke] + self.eps
@@ -192,9 +193,10 @@ class LayeredScene:
                 self._uncovered = self._scene_of(ids)
         return self._uncovered or None
 
-    def first_visible(self, origins, directions, layered=True, max_skips=16, min_dist=0.0) -> Visible:
+    def first_visible(self, origins, directions, layered=True, max_skips=16, min_dist=0.0, first=None) -> Visible:
         """The hit each ray shows; with ``layered`` False, plain ray tracing. ``min_dist``
-        skips what lies closer (a ray leaving a surface starts on it)."""
+        skips what lies closer (a ray leaving a surface starts on it). ``first``: the rays'
+        first hits (``min_dist`` 0) when the caller has traced them already."""
         o = np.asarray(origins, float).copy()
         d = np.asarray(directions, float)
         n = len(o)
@@ -209,7 +211,10 @@ class LayeredScene:
         for _ in range(max_skips + 1):
             if not len(todo):
                 break
-            hits = self.scene.intersect(o[todo], d[todo], min_dist=min_dist[todo])
+            if first is not None:
+                hits, first = first, None
+            else:
+                hits = self.scene.intersect(o[todo], d[todo], min_dist=min_dist[todo])
             # a covering layer closer than the skip distance (coincident layers) still counts
             nearer = cover_t[todo] < hits.t
             if nearer.any():
