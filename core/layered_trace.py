@@ -12,6 +12,7 @@ import numpy as np
 
 from .correspondence import vertex_normals
 from .rays import RayHits, RayScene
+from .vectors import norms
 
 
 @dataclass
@@ -57,6 +58,9 @@ class LayeredScene:
                 raise ValueError(f"global normals must be one per vertex: {n.shape} for {v.shape}")
         self.offset = float(offset)
         self._stacked_probes, self._stacked_normals = self.stack(self.probes), self.stack(self.normals)
+        # global normal and l_s side by side: a probe blends both from one gather of its corners
+        self._stacked_frames = (np.column_stack([self._stacked_normals, self._stacked_probes])
+                                if len(self._stacked_probes) else np.zeros((0, 4)))
         counts = np.array([len(f) for f in self.faces])
         self.first_face = np.concatenate([[0], np.cumsum(counts)])
         all_v = np.vstack(self.vertices) if self.vertices else np.zeros((0, 3))
@@ -77,7 +81,11 @@ class LayeredScene:
                                  np.max([self.vertices[i].max(0) for i in ids], axis=0)])
                 reach = max((float(self.probes[i].max(initial=0.0)) for i, lay in enumerate(self.layers)
                              if lay == layer), default=0.0) + abs(self.offset)
-                self._cover_box[layer] = (box, reach)
+                # the layer's own box within reach of that box everywhere: no hit needs the test
+                own = [self.vertices[i] for i, lay in enumerate(self.layers) if lay == layer and len(self.vertices[i])]
+                inside = bool(own) and (np.min([v.min(0) for v in own], axis=0) >= box[0] - reach / np.sqrt(3)).all() \
+                    and (np.max([v.max(0) for v in own], axis=0) <= box[1] + reach / np.sqrt(3)).all()
+                self._cover_box[layer] = (box, reach, inside)
         # per layer value (-1, a miss or an object outside the layering, last): is anything worn over it?
         top = max([lay for lay in self.layers if lay is not None], default=-1)
         self._has_cover = np.zeros(top + 2, bool)
@@ -110,10 +118,11 @@ class LayeredScene:
         """l_s at hit points, blended from the objects' per-vertex probe distances."""
         return self.interpolate(self._stacked_probes, obj, face, bary)
 
-    def global_normal(self, obj, face, bary):
-        out = self.interpolate(self._stacked_normals, obj, face, bary)
-        length = np.linalg.norm(out, axis=1, keepdims=True)
-        return np.divide(out, length, out=np.zeros_like(out), where=length > 0)
+    def _probe_frame(self, obj, face, bary):
+        """(unit global normal, l_s) at hit points (all hits)."""
+        frame = self.interpolate(self._stacked_frames, obj, face, bary)
+        g, length = frame[:, :3], norms(frame)
+        return np.divide(g, length[:, None], out=np.zeros_like(g), where=length[:, None] > 0), frame[:, 3]
 
     def blocked(self, origins, directions, max_dist, layered=True, leaving=None) -> np.ndarray:
         """Whether a shown surface lies on each ray before ``max_dist`` (shadow rays). With
@@ -235,17 +244,17 @@ class LayeredScene:
                         continue
                     p = o[todo[cand]] + d[todo[cand]] * hits.t[cand, None]
                     # a probe cannot reach what is worn over the layer from farther than its reach
-                    box, most = self._cover_box[layer]
-                    near = _box_distance(p, box) <= most
-                    if not near.all():
-                        cand, p = cand[near], p[near]
-                        if not len(cand):
-                            continue
+                    box, most, inside = self._cover_box[layer]
+                    if not inside:
+                        near = _box_distance(p, box) <= most
+                        if not near.all():
+                            cand, p = cand[near], p[near]
+                            if not len(cand):
+                                continue
                     scene = self._cover(layer)
-                    g = self.global_normal(obj[cand], face[cand], hits.bary[cand])
+                    g, reach = self._probe_frame(obj[cand], face[cand], hits.bary[cand])
                     # a probe from just outside: a higher layer at the same place is in front
                     start = p + g * self.offset
-                    reach = self.probe_at(obj[cand], face[cand], hits.bary[cand])
                     covered = scene.occluded(start, -g, max_dist=reach + self.offset)
                     rejected[cand] = covered
                     if covered.any():
