@@ -67,8 +67,10 @@ def _lights(depsgraph, area_samples=4):
     return out
 
 
-def scene_arrays(depsgraph):
-    """(LayeredScene, materials, objects) of the visible meshes, in world space."""
+def scene_arrays(depsgraph, layered=True):
+    """(LayeredScene, materials, objects) of the visible meshes, in world space. Without
+    ``layered`` (plain ray tracing) the global normals, body parts and probe distances that
+    only layering uses are not read."""
     objects, layers, normals, materials, sources = [], [], [], [], []
     settings = depsgraph.scene.deformrt
     parts = None
@@ -81,18 +83,20 @@ def scene_arrays(depsgraph):
         role = obj.deformrt.role
         objects.append((a.vertices, a.triangles))
         layers.append(None if role == "NONE" else (0 if role == "BODY" else obj.deformrt.layer))
-        n = mesh_io.read_point_vectors(obj, GLOBAL_NORMAL_ATTRIBUTE, depsgraph) if role != "NONE" else None
+        n = mesh_io.read_point_vectors(obj, GLOBAL_NORMAL_ATTRIBUTE, depsgraph) if layered and role != "NONE" else None
         # stored in object space; normals turn with the inverse transpose
         normals.append(None if n is None or len(n) != len(a.vertices) else n @ np.linalg.inv(a.matrix_world[:3, :3]))
         materials.append(_material(obj))
         sources.append(obj)
-        if role == "BODY":
+        if layered and role == "BODY":
             # no vertex groups: reading them adds a modifier, and a render must not write to the scene
             parts, _ = body_parts(obj, settings.scheme, a.vertices, groups=False, depsgraph=depsgraph)
             if parts is not None and len(parts) != len(a.vertices):
                 parts = None
     scheme = settings.scheme if parts is not None else None  # body_parts finds none without a scheme
-    probe = body_probes(objects, layers, probe_distances(settings, parts is not None), parts, scheme)
+    probe = 0.0
+    if layered:
+        probe = body_probes(objects, layers, probe_distances(settings, parts is not None), parts, scheme)
     return LayeredScene(objects, layers, normals, probe_distance=probe, offset=settings.offset), materials, sources
 
 
@@ -173,7 +177,7 @@ class FrameTracer:
         scene = depsgraph.scene
         settings = scene.deformrt
         t0 = time.perf_counter()
-        self.scene, self.materials, self.objects = scene_arrays(depsgraph)
+        self.scene, self.materials, self.objects = scene_arrays(depsgraph, settings.render_layered)
         self.seconds = {"read_build_s": time.perf_counter() - t0, "trace_s": 0.0}
         m = np.array(scene.camera.matrix_world)
         self.width, self.height = width, height
