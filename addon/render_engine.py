@@ -96,11 +96,13 @@ def scene_arrays(depsgraph, layered=True):
     scheme = settings.scheme if parts is not None else None  # body_parts finds none without a scheme
     probe = 0.0
     if layered:
-        probe = body_probes(objects, layers, probe_distances(settings, parts is not None), parts, scheme)
+        top = max((lay for lay in layers if lay is not None), default=0)
+        probe = body_probes(objects, layers, probe_distances(settings, parts is not None), parts, scheme,
+                            traced=[lay is not None and lay < top for lay in layers])
     return LayeredScene(objects, layers, normals, probe_distance=probe, offset=settings.offset), materials, sources
 
 
-def body_probes(objects, layers, given=None, parts=None, scheme=None):
+def body_probes(objects, layers, given=None, parts=None, scheme=None, traced=None):
     """l_s per vertex as the resolve takes it: ``given`` (one distance, or one per part with
     NaN where the part keeps its default) or else the body's radius (half its thickness
     straight through), each part's median when the body has ``parts`` (one id per body vertex)
@@ -109,7 +111,8 @@ def body_probes(objects, layers, given=None, parts=None, scheme=None):
     parts follow, a garment whose hem goes round both legs (a skirt) takes the skirt
     segment's l_s on the legs, as in the resolve (BodyFacts.probe_lengths: its linked parts'
     farthest reach, or its override). Objects outside the layering, or all of them when there
-    is no body, keep the default (None)."""
+    is no body, keep the default (None), as do those whose ``traced`` (one bool per object) is
+    False: the outermost layer, which nothing is worn over, sends no probe."""
     if given is not None and np.ndim(given) == 0:
         return float(given)
     if given is not None and parts is None:
@@ -119,8 +122,11 @@ def body_probes(objects, layers, given=None, parts=None, scheme=None):
         return None
     facts = body_facts(*objects[body])  # kept: the next frame of a still body asks again
     search = facts.search
-    nearest = [None if lay is None else search.vertex_ids[search.tree.query(v, workers=-1)[1]]
-               for (v, _), lay in zip(objects, layers, strict=True)]
+    traced = [True] * len(objects) if traced is None else traced
+    # a body vertex is its own nearest (a triangle's vertex sits in the tree at distance 0)
+    nearest = [None if lay is None or not go else np.arange(len(v)) if i == body
+               else search.vertex_ids[search.tree.query(v, workers=-1)[1]]
+               for i, ((v, _), lay, go) in enumerate(zip(objects, layers, traced, strict=True))]
     if parts is None:
         return [None if at is None else facts.radius[at] for at in nearest]
     parts = np.asarray(parts, np.int64)

@@ -209,6 +209,11 @@ def test_probe_distance_follows_the_body_parts_and_their_overrides(extension):
     np.testing.assert_allclose(probes[1], 0.1, rtol=0.01)
     np.testing.assert_allclose(probes[2], 0.04, rtol=0.01)
     np.testing.assert_allclose(probes[0][parts == 1], 0.04, rtol=0.01)
+    np.testing.assert_allclose(probes[0][parts == 0], 0.1, rtol=0.01)
+    # what sends no probe (the outermost layer) is not looked up: the default
+    skipped = engine.body_probes(objects, [0, 1, 2], parts=parts, traced=[True, True, False])
+    assert skipped[2] is None
+    np.testing.assert_array_equal(skipped[1], probes[1])
     probes = engine.body_probes(objects, [0, 1, 2], given=np.array([np.nan, 0.02]), parts=parts)
     np.testing.assert_allclose(probes[1], 0.1, rtol=0.01)  # NaN: the part keeps its radius
     np.testing.assert_array_equal(probes[2], 0.02)
