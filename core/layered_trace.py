@@ -106,11 +106,15 @@ class LayeredScene:
         """Per-vertex values (``stack``ed) at hit points, blended by barycentrics; 0 on misses.
         One gather over all objects at once: grouping the hits by object costs a sort."""
         hit = obj >= 0
+        if not len(stacked):
+            return np.zeros((len(obj), *np.shape(stacked)[1:]))
         corner = self.scene.faces[np.where(hit, self.first_face[np.maximum(obj, 0)] + face, 0)]
-        tri = stacked[corner] if len(stacked) else np.zeros((len(obj), 3, *np.shape(stacked)[1:]))
-        shape = (-1, *([1] * (tri.ndim - 2)))
+        shape = (-1, *([1] * (np.ndim(stacked) - 1)))
         u, v = bary[:, 0].reshape(shape), bary[:, 1].reshape(shape)
-        out = (1 - u - v) * tri[:, 0] + u * tri[:, 1] + v * tri[:, 2]
+        # corner by corner, in place: (n, 3, ...) gathers of a frame's hits do not fit in cache
+        out = (1 - u - v) * stacked[corner[:, 0]]
+        out += u * stacked[corner[:, 1]]
+        out += v * stacked[corner[:, 2]]
         out[~hit] = 0.0
         return out
 

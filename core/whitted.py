@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .layered_trace import LayeredScene
+from .vectors import norms
 
 LUMA = np.array([0.299, 0.587, 0.114])  # NTSC luminance weights
 
@@ -93,6 +94,7 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
     props = {k: np.array([getattr(m, k) for m in mats], float)
              for k in ("transmission", "mirror", "ior", "specular", "shininess")}
     leaving = np.zeros(n)  # secondary rays start on their surface and skip it
+    once = True  # each pixel at most once in the batch (camera rays), so no np.add.at needed
     while len(pixel):
         vis = scene.first_visible(o, d, layered=layered, min_dist=leaving)
         stats["rays"] += len(pixel)
@@ -102,7 +104,7 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
         # Beer-Lambert over the way to the hit (or to the background)
         travel = np.where(hit, vis.t, 0.0)
         weight = weight * np.exp(-sigma * travel[:, None])
-        np.add.at(colour, pixel[~hit], weight[~hit] * sky(d[~hit]))
+        _add(colour, pixel[~hit], weight[~hit] * sky(d[~hit]), once)
         if not hit.any():
             break
         keep = np.flatnonzero(hit)
@@ -117,7 +119,7 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
         start = _shadow_origin(scene, obj, face, bary, p, np.where(entering, 1.0, -1.0)) + nrm * scene.eps
         colour_local = _direct(scene, lights, p, start, nrm, d, albedo[obj], props["specular"][obj],
                                props["shininess"][obj], ambient, stats, layered, obj)
-        np.add.at(colour, pixel, weight * local[:, None] * colour_local)
+        _add(colour, pixel, weight * local[:, None] * colour_local, once)
         # Fresnel for the transmissive share (eq. 2.12-2.13); total internal reflection reflects all
         eta = np.where(entering, 1.0 / ior, ior)
         cos_i = -np.einsum("ij,ij->i", nrm, d)
@@ -150,18 +152,28 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
         o, d, pixel, weight, depth_of, sigma = (np.concatenate(parts) for parts in zip(*batches, strict=True))
         d = d / np.linalg.norm(d, axis=1, keepdims=True)
         leaving = np.full(len(o), scene.eps)
+        once = False  # a pixel's reflected and refracted rays travel together
     return Image(colour, first.t, first.obj, first.fixed, stats)
+
+
+def _add(colour, pixel, value, once):
+    if once:
+        colour[pixel] += value
+    else:
+        np.add.at(colour, pixel, value)
 
 
 def _shading_normal(scene, obj, face, bary):
     """The object's interpolated vertex normals (smooth shading); the face's own where they
     cancel out."""
     out = scene.interpolate(scene.stacked_shading_normals, obj, face, bary)
-    bad = np.flatnonzero(np.linalg.norm(out, axis=1) < 1e-12)
+    length = norms(out)
+    bad = np.flatnonzero(length < 1e-12)
     if len(bad):
         glob = scene.first_face[obj[bad]] + face[bad]
         out[bad] = scene.scene.face_normals[glob]
-    return out / np.maximum(np.linalg.norm(out, axis=1, keepdims=True), 1e-300)
+        length[bad] = norms(out[bad])
+    return out / np.maximum(length, 1e-300)[:, None]
 
 
 def _shadow_origin(scene, obj, face, bary, p, side):
@@ -169,14 +181,17 @@ def _shadow_origin(scene, obj, face, bary, p, side):
     surface its vertex normals describe (Hanika, "Hacking the shadow terminator", Ray Tracing
     Gems II ch. 4), so a coarse or folded triangle does not shadow itself where its shading
     says it is lit. ``side``: +1 on the side the normals point to, -1 on the other."""
-    glob = scene.first_face[obj] + face
-    corners = scene.scene.faces[glob]
-    v = scene.scene.vertices[corners]
-    n = scene.stacked_shading_normals[corners] * side[:, None, None]
-    w = np.column_stack([1 - bary[:, 0] - bary[:, 1], bary[:, 0], bary[:, 1]])
-    rel = p[:, None, :] - v
-    rel -= np.minimum(0.0, np.einsum("ijk,ijk->ij", rel, n))[..., None] * n
-    return np.einsum("ij,ijk->ik", w, v + rel)
+    corners = scene.scene.faces[scene.first_face[obj] + face]
+    weights = (1 - bary[:, 0] - bary[:, 1], bary[:, 0], bary[:, 1])
+    # p lifted out of each corner's tangent plane (normal side * n) where it lies below it,
+    # blended by the weights (they sum to one); corner by corner on (n, 3) rows, as (n, 3, 3)
+    # temporaries of a frame's hits do not fit in cache
+    moved = np.zeros_like(p)
+    for k, w in enumerate(weights):
+        n = scene.stacked_shading_normals[corners[:, k]]
+        below = np.minimum(0.0, side * np.einsum("ij,ij->i", p - scene.scene.vertices[corners[:, k]], n))
+        moved += (w * below)[:, None] * n
+    return p - side[:, None] * moved
 
 
 def _direct(scene, lights, p, start, nrm, d, albedo, spec, shine, ambient, stats, layered, obj):
@@ -204,10 +219,13 @@ def _direct(scene, lights, p, start, nrm, d, albedo, spec, shine, ambient, stats
         stats["shadow_rays"] += len(idx)
         idx = idx[~shadow]
         cos = np.einsum("ij,ij->i", nrm[idx], to_l[idx])
-        half = to_l[idx] - d[idx]
-        half /= np.maximum(np.linalg.norm(half, axis=1, keepdims=True), 1e-300)
-        blinn = np.maximum(0.0, np.einsum("ij,ij->i", nrm[idx], half)) ** shine[idx]
-        out[idx] += power[idx] * (albedo[idx] * cos[:, None] + (spec[idx] * blinn)[:, None])
+        shade = albedo[idx] * cos[:, None]
+        if spec[idx].any():  # no highlight to add on purely diffuse surfaces
+            half = to_l[idx] - d[idx]
+            half /= np.maximum(norms(half), 1e-300)[:, None]
+            blinn = np.maximum(0.0, np.einsum("ij,ij->i", nrm[idx], half)) ** shine[idx]
+            shade += (spec[idx] * blinn)[:, None]
+        out[idx] += power[idx] * shade
     return out
 
 

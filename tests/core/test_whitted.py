@@ -43,6 +43,26 @@ def test_lambert_sphere_under_a_sun():
     np.testing.assert_array_equal(img.colour[~covered], 0.0)
 
 
+def test_blinn_phong_highlight_on_a_floor_seen_from_above():
+    """Eq. 2.7-2.8 on a flat floor under a slanted sun, seen straight down: irradiance E times
+    albedo cos(theta) plus k_s (n . h)^s with h halfway between the light and the eye; without
+    k_s the diffuse term alone."""
+    v, f = sheet(size=2.0, n=5, z=0.0)
+    scene = LayeredScene([(v, f)], [None])
+    sun_dir = np.array([0.4, -0.2, -1.0])
+    sun = [Light("SUN", tuple(sun_dir), (1.5, 1.5, 1.5))]
+    o, d = down_rays(n=4, spread=0.5)
+    to_light = -sun_dir / np.linalg.norm(sun_dir)
+    half = to_light + [0.0, 0.0, 1.0]
+    half /= np.linalg.norm(half)
+    albedo = np.array([0.6, 0.5, 0.4])
+    for ks, shine in ((0.0, 32.0), (0.7, 20.0)):
+        mats = [Material(colour=tuple(albedo), specular=ks, shininess=shine)]
+        img = render(scene, mats, sun, o, d)
+        want = 1.5 * (albedo * to_light[2] + ks * half[2] ** shine)
+        np.testing.assert_allclose(img.colour, np.tile(want, (len(o), 1)), rtol=1e-9)
+
+
 def test_a_coarse_smooth_sphere_does_not_shadow_itself():
     """A convex body casts no shadow on itself: on a 320-triangle sphere, smooth shading must
     give E albedo max(0, n_s.l) with n_s the interpolated vertex normal everywhere, also near
