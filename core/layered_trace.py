@@ -276,14 +276,13 @@ class LayeredScene:
                             cover_face[todo[c]] = again_hits.face
                             cover_bary[todo[c]] = again_hits.bary
             # every ray not ignored is done: its hit, or nothing (rejected rays all hit)
-            shown = ~rejected
+            shown = np.flatnonzero(~rejected)  # integer takes: boolean ones of (n, 2) rows are slower
             done = todo[shown]
             cover_t[done] = np.inf
-            hit_s = hit[shown]
-            result.t[done] = np.where(hit_s, t_total[done] + hits.t[shown], np.inf)
+            result.t[done] = np.where(hit[shown], t_total[done] + hits.t[shown], np.inf)
             result.obj[done] = obj[shown]
             result.face[done] = face[shown]
-            result.bary[done] = np.where(hit_s[:, None], hits.bary[shown], 0.0)
+            result.bary[done] = hits.bary[shown]  # (0, 0) on a miss already
             again = todo[rejected]
             result.fixed[again] = True
             result.skipped += len(again)

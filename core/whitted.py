@@ -104,7 +104,8 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
         # Beer-Lambert over the way to the hit (or to the background)
         travel = np.where(hit, vis.t, 0.0)
         weight = weight * np.exp(-sigma * travel[:, None])
-        _add(colour, pixel[~hit], weight[~hit] * sky(d[~hit]), once)
+        miss = np.flatnonzero(~hit)  # integer takes: boolean ones of (n, 3) rows are slower
+        _add(colour, pixel[miss], weight[miss] * sky(d[miss]), once)
         if not hit.any():
             break
         keep = np.flatnonzero(hit)
