@@ -144,6 +144,26 @@ def test_z_fighting_sheets_show_only_the_higher_layer():
     assert (near.first_visible(o, d).obj == 1).all()
 
 
+def test_ten_crossing_layers_show_only_the_outermost_from_above():
+    """Ten wavy sheets worn in order, each crossing the others (a stack of poke-throughs): from
+    above only the tenth shows, wherever plain ray tracing shows one of the nine under it. Only
+    the layers rays meet get a scene of what is worn over them, and each layer in those is
+    built once for all of them."""
+    layers = [sheet(size=1.0, n=24, z=0.002 * k, height_fn=lambda x, y, k=k: 0.006 * np.sin(7 * x + k) * np.cos(5 * y))
+              for k in range(10)]
+    up = [np.tile([0.0, 0.0, 1.0], (len(v), 1)) for v, _ in layers]
+    scene = LayeredScene(layers, list(range(1, 11)), global_normals=up, probe_distance=0.05)
+    o, d = down_rays(n=40, spread=0.45)
+    plain = scene.first_visible(o, d, layered=False)
+    shown = scene.first_visible(o, d)
+    assert len(np.unique(plain.obj)) > 3  # plain ray tracing shows several of the lower ones
+    assert (shown.obj == 9).all()
+    np.testing.assert_array_equal(shown.fixed, plain.obj != 9)
+    # covers only for the layers rays met, each layer over them built once for all of them
+    assert sorted(scene._layer_scenes) == list(range(plain.obj.min() + 1, 10))
+    assert len(scene.scene._groups) == 9 - plain.obj.min()
+
+
 def test_flipped_faces_shade_the_same():
     sphere = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
     sun = [Light("SUN", (0, 0, -1), (1, 1, 1))]
