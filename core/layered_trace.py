@@ -81,10 +81,12 @@ class LayeredScene:
                                  np.max([self.vertices[i].max(0) for i in ids], axis=0)])
                 reach = max((float(self.probes[i].max(initial=0.0)) for i, lay in enumerate(self.layers)
                              if lay == layer), default=0.0) + abs(self.offset)
-                # the layer's own box within reach of that box everywhere: no hit needs the test
+                # the layer's own box inside that box grown by reach / sqrt(3) on every side lies
+                # within reach of it everywhere: no hit on the layer needs the per-hit test
                 own = [self.vertices[i] for i, lay in enumerate(self.layers) if lay == layer and len(self.vertices[i])]
-                inside = bool(own) and (np.min([v.min(0) for v in own], axis=0) >= box[0] - reach / np.sqrt(3)).all() \
-                    and (np.max([v.max(0) for v in own], axis=0) <= box[1] + reach / np.sqrt(3)).all()
+                grown = (box[0] - reach / np.sqrt(3), box[1] + reach / np.sqrt(3))
+                inside = bool(own) and bool((np.min([v.min(0) for v in own], axis=0) >= grown[0]).all()
+                                            and (np.max([v.max(0) for v in own], axis=0) <= grown[1]).all())
                 self._cover_box[layer] = (box, reach, inside)
         # per layer value (-1, a miss or an object outside the layering, last): is anything worn over it?
         top = max([lay for lay in self.layers if lay is not None], default=-1)
