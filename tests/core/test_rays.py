@@ -259,13 +259,17 @@ def test_numpy_fallback_gives_the_same_hits(rng, monkeypatch):
     np.testing.assert_allclose(numpy_hits.t[both], embree.t[both], rtol=1e-6, atol=1e-9)
 
 
-@pytest.mark.parametrize("direct", ["on", "off"])
+@pytest.mark.parametrize("direct", ["on", "off", "numpy"])
 def test_parts_answer_as_brute_force_over_their_faces_and_name_the_whole_scenes_faces(rng, monkeypatch, direct):
     """A part over some face ranges hits what Möller–Trumbore finds among those faces alone and
     names them by their ids in the whole scene; with Embree instancing (direct on) overlapping
-    parts build each range once, and without it (off) the part is a scene of its own."""
+    parts build each range once, and without it (off, or no Embree at all) the part is a scene
+    of its own."""
     if direct == "off":
         monkeypatch.setattr(embree_direct, "_state", "off")
+    if direct == "numpy":
+        monkeypatch.setattr(rays, "HAVE_EMBREE", False)
+        monkeypatch.setattr(rays, "_warned_fallback", True)
     v, f = random_soup(rng, n_tri=900)
     o, d = random_rays(rng, 2000)
     scene = RayScene(v, f)
