@@ -198,7 +198,9 @@ class RayScene:
         ids, sharing this scene's vertices; its hits name this scene's faces. Each range is
         built once, into an Embree scene of its own that every part holding it instances, so
         parts over overlapping sets of triangles (what is worn over each layer) build no
-        triangle twice. A part does not follow ``update``: make it again from the moved scene."""
+        triangle twice; a ray through several overlapping ranges costs a little more than through
+        one flat scene of them (docs/REPORT.md, ray engine). A part does not follow ``update``:
+        make it again from the moved scene."""
         ranges = sorted({(int(a), int(b)) for a, b in ranges if int(b) > int(a)})
         if any(a < 0 or b > len(self.faces) for a, b in ranges):
             raise ValueError(f"face ranges must lie in 0..{len(self.faces)}, got {ranges}")
