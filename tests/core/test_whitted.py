@@ -164,6 +164,34 @@ def test_ten_crossing_layers_show_only_the_outermost_from_above():
     assert len(scene.scene._groups) == 9 - plain.obj.min()
 
 
+@pytest.mark.parametrize("scale, offset", [(1e-3, 0.0), (1e3, 0.0), (1.0, 1e4), (1e-3, 50.0)])
+def test_z_fighting_layers_resolve_the_same_at_millimetre_and_kilometre_scales_and_far_away(scale, offset):
+    """The z-fighting sheets and, over their right half, a stack of four wavy layers crossing
+    each other, scaled from a millimetre garment to a kilometre one and moved far from the
+    origin (float32 tracing works about each scene's centre): the same layer shows at every ray
+    as at human scale, and the same rays are fixed."""
+    def scenes(k, shift):
+        v, f = sheet(size=1.0, n=20, z=0.0)
+        wiggle = v.copy()
+        wiggle[:, 2] += 0.002 * np.sin(37 * v[:, 0]) * np.cos(23 * v[:, 1])
+        layers = [(wiggle * k + shift, f), (v * k + shift, f)]
+        for j in range(4):
+            w, g = sheet(size=1.0, n=12, z=0.003 * j, height_fn=lambda x, y, j=j: 0.005 * np.sin(8 * x + j))
+            layers.append(((w + [0.5, 0.0, 0.1]) * k + shift, g))  # over the right half
+        up = [np.tile([0.0, 0.0, 1.0], (len(x), 1)) for x, _ in layers]
+        return LayeredScene(layers, [1, 2, 3, 4, 5, 6], global_normals=up, probe_distance=0.01 * k)
+
+    o, d = down_rays(n=30, spread=0.45)
+    ref = scenes(1.0, 0.0).first_visible(o, d)
+    shift = np.array([offset, -offset, offset])
+    got = scenes(scale, shift).first_visible(o * scale + shift, d)
+    # the higher of the z-fighting pair on the left, the outermost of the stack on the right
+    np.testing.assert_array_equal(ref.obj, np.where(o[:, 0] < 0, 1, 5))
+    np.testing.assert_array_equal(got.obj, ref.obj)
+    np.testing.assert_array_equal(got.fixed, ref.fixed)
+    np.testing.assert_allclose(got.t, ref.t * scale, rtol=1e-9)
+
+
 def test_flipped_faces_shade_the_same():
     sphere = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
     sun = [Light("SUN", (0, 0, -1), (1, 1, 1))]
