@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .bell import BellShape, Creature
+from .correspondence import vertex_normals as triangle_vertex_normals
 from .rbf import VolumeSpline
 
 
@@ -156,14 +157,7 @@ class StrokeField:
 
 def vertex_normals(verts, faces) -> np.ndarray:
     """Area-weighted unit vertex normals of a polygon surface (fan-triangulated faces)."""
-    v = np.asarray(verts, float)
-    tris = triangles(faces)
-    n = np.cross(v[tris[:, 1]] - v[tris[:, 0]], v[tris[:, 2]] - v[tris[:, 0]])
-    out = np.zeros_like(v)
-    for k in range(3):
-        np.add.at(out, tris[:, k], n)
-    length = np.linalg.norm(out, axis=1, keepdims=True)
-    return np.divide(out, length, out=np.zeros_like(out), where=length > 0)
+    return triangle_vertex_normals(np.asarray(verts, float), triangles(faces))
 
 
 def volume_offset(moved, faces, normals, target) -> float:
