@@ -15,7 +15,7 @@ from scipy.spatial import cKDTree
 from .parallel import map_chunks
 from .rays import RayScene
 from .topology import used_vertices
-from .vectors import norms
+from .vectors import norms, unit
 
 
 @dataclass
@@ -28,15 +28,10 @@ class BodyCorrespondence:
         """Interpolated unit body normals at the corresponding points (the seed's n')."""
         corners = body_vertex_normals[body_faces[self.triangle]]  # (n, 3, 3)
         n = np.einsum("ij,ijk->ik", self.bary, corners)
-        return _unit(n)
+        return unit(n)
 
     def points(self, body_vertices: np.ndarray, body_faces: np.ndarray) -> np.ndarray:
         return np.einsum("ij,ijk->ik", self.bary, body_vertices[body_faces[self.triangle]])
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    length = np.linalg.norm(v, axis=1, keepdims=True)
-    return np.divide(v, length, out=np.zeros_like(v), where=length > 0)
 
 
 def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -56,8 +51,7 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     out = np.empty((len(vertices), 3))
     for k in range(3):
         out[:, k] = np.bincount(idx, weights=np.tile(cross[:, k], 3), minlength=len(vertices))
-    length = norms(out)
-    return np.divide(out, length[:, None], out=np.zeros_like(out), where=length[:, None] > 0)
+    return unit(out)
 
 
 def triangle_table(a, b, c, dtype=np.float64) -> np.ndarray:
@@ -67,7 +61,7 @@ def triangle_table(a, b, c, dtype=np.float64) -> np.ndarray:
     ab, ac = b - a, c - a
     bb, cc, bc = (np.einsum("ij,ij->i", x, y) for x, y in ((ab, ab), (ac, ac), (ab, ac)))
     det = bb * cc - bc * bc
-    normal = _unit(np.cross(ab, ac))
+    normal = unit(np.cross(ab, ac))
     # det is |ab x ac|^2: below a relative 1e-12 the in-plane solve is noise
     flat = det <= 1e-12 * bb * cc
     inv = np.divide(1.0, det, out=np.zeros_like(det), where=~flat)

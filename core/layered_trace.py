@@ -12,7 +12,7 @@ import numpy as np
 
 from .correspondence import vertex_normals
 from .rays import RayHits, RayScene
-from .vectors import norms
+from .vectors import unit
 
 
 @dataclass
@@ -127,8 +127,7 @@ class LayeredScene:
     def _probe_frame(self, obj, face, bary):
         """(unit global normal, l_s) at hit points (all hits)."""
         frame = self.interpolate(self._stacked_frames, obj, face, bary)
-        g, length = frame[:, :3], norms(frame)
-        return np.divide(g, length[:, None], out=np.zeros_like(g), where=length[:, None] > 0), frame[:, 3]
+        return unit(frame[:, :3]), frame[:, 3]
 
     def blocked(self, origins, directions, max_dist, layered=True, leaving=None) -> np.ndarray:
         """Whether a shown surface lies on each ray before ``max_dist`` (shadow rays). With

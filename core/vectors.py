@@ -12,4 +12,10 @@ def norms(v: np.ndarray) -> np.ndarray:
     return np.sqrt(v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] + v[:, 2] * v[:, 2])
 
 
-__all__ = ["norms"]
+def unit(v: np.ndarray) -> np.ndarray:
+    """The rows of an (n, 3) array scaled to length one; rows of length zero stay zero."""
+    length = norms(v)[:, None]
+    return np.divide(v, length, out=np.zeros_like(v, dtype=float), where=length > 0)
+
+
+__all__ = ["norms", "unit"]
