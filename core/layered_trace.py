@@ -57,9 +57,9 @@ class LayeredScene:
             if n.shape != v.shape:
                 raise ValueError(f"global normals must be one per vertex: {n.shape} for {v.shape}")
         self.offset = float(offset)
-        self._stacked_probes, self._stacked_normals = self.stack(self.probes), self.stack(self.normals)
+        self._stacked_probes = self.stack(self.probes)
         # global normal and l_s side by side: a probe blends both from one gather of its corners
-        self._stacked_frames = (np.column_stack([self._stacked_normals, self._stacked_probes])
+        self._stacked_frames = (np.column_stack([self.stack(self.normals), self._stacked_probes])
                                 if len(self._stacked_probes) else np.zeros((0, 4)))
         counts = np.array([len(f) for f in self.faces])
         self.first_face = np.concatenate([[0], np.cumsum(counts)])
