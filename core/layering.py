@@ -542,8 +542,13 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         hit = layer == k
         if not hit.any():
             return
-        spread = _spread_from_hits(v, f, topo[k], o[hit] + n_o[hit] * t[hit, None], t[hit] + d,
-                                   f[face[hit]].ravel(), params.get("falloff"))
+        # A hit goes no deeper than the body lets its triangle go: where the body holds the
+        # layer, the cloth around the hit stays too (else each resolve of the result digs it in further)
+        corners = f[face[hit]]
+        room = (clearance[k][corners] - d * (k + 1) / (n_g + 1) - chord).max(1)
+        amp = np.clip(np.minimum(t[hit] + d, room), 0.0, None)
+        spread = _spread_from_hits(v, f, topo[k], o[hit] + n_o[hit] * t[hit, None], amp,
+                                   corners.ravel(), params.get("falloff"))
         idx = np.flatnonzero(spread > 0)
         spread[idx] = body_floor(k, idx, spread[idx])
         verts[k] = v - normals[k] * spread[:, None]

@@ -142,6 +142,29 @@ def test_a_lower_layer_is_tucked_under_a_hem_where_the_hem_ends_up():
     assert again.stats["vertices_moved_boundary"] == 0
 
 
+def test_a_hem_the_body_holds_a_layer_in_front_of_tucks_nothing_around_it():
+    """A shirt squeezed against the body for a band round a jacket's hem that presses into it:
+    the shirt cannot go under that hem, so its looser rings beyond the band stay where they are,
+    and resolving the result again moves nothing (a spread from the hem dug them in further on
+    every resolve)."""
+    from sample_scenes.shapes import tube
+
+    def taper(v, tight, loose, band):
+        ease = np.clip((np.abs(v[:, 2] - 0.2) - band) / 0.03, 0, 1)
+        r = tight + (loose - tight) * ease
+        return np.column_stack([v[:, :2] * (r / np.hypot(v[:, 0], v[:, 1]))[:, None], v[:, 2]])
+
+    body = body_tube()
+    sv, sf = tube(0.165, 0.0, 0.6, n_around=40, n_along=40)  # rings 15.4 mm apart, one at z = 0.2
+    jv, jf = tube(0.17, 0.2, 0.6, n_around=40, n_along=27)
+    shirt, jacket = mesh(taper(sv, 0.1515, 0.165, 0.02), sf), mesh(taper(jv, 0.151, 0.17, 0.0), jf)
+    res = resolve_layers(body, [shirt, jacket], remove_hidden=False)
+    assert res.stats["rays_boundary"] > 0 and res.stats["vertices_held_by_body"] > 0
+    assert res.stats["vertices_moved_boundary"] == 0
+    again = resolve_layers(body, [mesh(g.vertices, g.faces) for g in res.garments], remove_hidden=False)
+    assert not again.moved[0].any()
+
+
 def test_already_correct_garments_are_left_alone():
     from sample_scenes.shapes import tube
 
