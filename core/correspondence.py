@@ -137,6 +137,13 @@ class SurfaceSearch(NamedTuple):
     incident: np.ndarray  # (tree points, ring_width) incident triangles, -1 padded
     table: np.ndarray  # float32 triangle_table about ``centre``: the candidates' first pick
     centre: np.ndarray
+    big: np.ndarray  # triangles far larger than most, asked by every point their box is near
+    big_box: np.ndarray  # (2, len(big), 3) float32 boxes about ``centre``
+
+
+# A triangle whose longest edge is this many times the median's is "big": a point can be nearest
+# to it with none of its corners among the point's nearest vertices (a floor under a figure).
+_BIG = 4.0
 
 
 def surface_search(vertices, faces, ring_width: int = 8) -> SurfaceSearch:
@@ -150,7 +157,31 @@ def surface_search(vertices, faces, ring_width: int = 8) -> SurfaceSearch:
     centre = 0.5 * (vertices.min(0) + vertices.max(0)) if len(vertices) else np.zeros(3)
     tri = vertices[faces] - centre
     table = triangle_table(tri[:, 0], tri[:, 1], tri[:, 2], np.float32)
-    return SurfaceSearch(cKDTree(vertices[ids]), ids, incident, table, centre)
+    longest = np.sqrt(np.max(table[:, 12:14], axis=1, initial=0.0))  # |ab|, |ac| (|bc| < their sum)
+    big = np.flatnonzero(longest > _BIG * np.median(longest)) if len(faces) else np.zeros(0, np.int64)
+    box = np.stack([tri[big].min(1), tri[big].max(1)]).astype(np.float32)
+    return SurfaceSearch(cKDTree(vertices[ids]), ids, incident, table, centre, big, box)
+
+
+def _nearer_big(points32, best_d2, search, block: int = 512):
+    """(better, triangle): points whose nearest "big" triangle is nearer than ``best_d2`` (squared),
+    and which one. Only big triangles whose box is within reach are asked."""
+    better = np.zeros(len(points32), dtype=bool)
+    pick = np.zeros(len(points32), dtype=np.int64)
+    best = best_d2.copy()
+    rows = np.arange(len(points32))
+    for b0 in range(0, len(search.big), block):
+        lo, hi = search.big_box[0, b0:b0 + block], search.big_box[1, b0:b0 + block]
+        gap = np.maximum(lo[None] - points32[:, None], 0) + np.maximum(points32[:, None] - hi[None], 0)
+        pr, pc = np.nonzero(np.einsum("ijk,ijk->ij", gap, gap) < best[:, None])
+        if not len(pr):
+            continue
+        d2 = np.full((len(points32), len(lo)), np.inf, dtype=np.float32)
+        d2[pr, pc] = closest_on_table(points32[pr], search.table[search.big[b0 + pc]], bary=False)
+        j = np.argmin(d2, axis=1)
+        win = d2[rows, j] < best
+        best[win], pick[win], better[win] = d2[rows, j][win], search.big[b0 + j[win]], True
+    return better, pick
 
 
 def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
@@ -185,7 +216,11 @@ def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
         # then solve the pick again in float64
         d = np.full(cand.shape, np.inf, dtype=np.float32)
         d[real] = closest_on_table(points32[sl][owner], search.table[cand[real]], bary=False)
-        pick = np.maximum(cand[np.arange(len(d)), np.argmin(d, axis=1)], 0)  # no triangle at all: triangle 0
+        arg = np.argmin(d, axis=1)
+        pick = np.maximum(cand[np.arange(len(d)), arg], 0)  # no triangle at all: triangle 0
+        if len(search.big):
+            better, big = _nearer_big(points32[sl], d[np.arange(len(d)), arg], search)
+            pick[better] = big[better]
         tri = vertices[faces[pick]]
         best_w[sl] = closest_point_on_triangles(points[sl], tri[:, 0], tri[:, 1], tri[:, 2])
         best_t[sl] = pick

@@ -41,6 +41,22 @@ def test_vertices_of_no_triangle_do_not_hide_the_surface():
     np.testing.assert_allclose(ours.distance, ref_d, atol=1e-9)
 
 
+def test_a_few_huge_triangles_beside_fine_ones_are_still_found():
+    """A figure on a floor of two triangles 4 m across (a collider, a stage): over most of the
+    floor the nearest vertices are the figure's or the floor's far corners, neither of which
+    names the floor under the point."""
+    v, f = bumpy_body()
+    floor_v = np.array([[-2.0, -2.0, -1.3], [2.0, -2.0, -1.3], [2.0, 2.0, -1.3], [-2.0, 2.0, -1.3]])
+    floor_f = np.array([[0, 1, 2], [0, 2, 3]]) + len(v)
+    verts, faces = np.vstack([v, floor_v]), np.vstack([f, floor_f])
+    rng = np.random.default_rng(3)
+    pts = np.column_stack([rng.uniform(-1.9, 1.9, (500, 2)), rng.uniform(-1.29, -0.5, 500)])
+    ours = nearest_on_surface(pts, verts, faces)
+    ref_pts, ref_d, _ = trimesh.proximity.closest_point(trimesh.Trimesh(verts, faces, process=False), pts)
+    np.testing.assert_allclose(ours.distance, ref_d, atol=1e-9)
+    np.testing.assert_allclose(ours.points(verts, faces), ref_pts, atol=1e-7)
+
+
 def test_closest_point_regions_against_dense_sampling():
     rng = np.random.default_rng(2)
     a, b, c = (rng.normal(size=(200, 3)) for _ in range(3))
