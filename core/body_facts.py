@@ -11,6 +11,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from .correspondence import closest_point_on_triangles, incident_triangles, local_radius, surface_search, vertex_normals
+from .rays import RayScene
 from .topology import topology_of, vertex_adjacency
 
 _KEEP = 4
@@ -38,7 +39,7 @@ class BodyFacts:
     def __init__(self, vertices, faces):
         # own read-only copies: what is kept must not change under the key it is kept by
         self.vertices, self.faces = _frozen(vertices), _frozen(faces)
-        self._normals = self._radius = self._search = self._pieces = None
+        self._normals = self._radius = self._search = self._pieces = self._scene = self._edges = None
         self._junctions = {}
 
     @property
@@ -51,8 +52,25 @@ class BodyFacts:
     def radius(self) -> np.ndarray:
         """Half the chord through the body from each vertex (correspondence.local_radius)."""
         if self._radius is None:
-            self._radius = _frozen(local_radius(self.vertices, self.faces, self.normals))
+            self._radius = _frozen(local_radius(self.vertices, self.faces, self.normals, scene=self.scene))
         return self._radius
+
+    @property
+    def scene(self) -> RayScene:
+        """The body's ray scene."""
+        if self._scene is None:
+            self._scene = RayScene(self.vertices, self.faces)
+        return self._scene
+
+    @property
+    def edges(self):
+        """The body's edges: (sorted vertex pairs, lows, highs), the boxes column by column."""
+        if self._edges is None:
+            e = topology_of(self.faces, len(self.vertices)).edges
+            a, b = self.vertices[e[:, 0]], self.vertices[e[:, 1]]
+            self._edges = (e, [np.minimum(a[:, i], b[:, i]) for i in range(3)],
+                           [np.maximum(a[:, i], b[:, i]) for i in range(3)])
+        return self._edges
 
     @property
     def search(self):

@@ -18,6 +18,7 @@ import trimesh
 from scipy.spatial import cKDTree
 
 from .body_facts import body_facts
+from .body_guard import back_off
 from .correspondence import (
     BodyCorrespondence,
     nearest_on_surface,
@@ -504,20 +505,36 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     # A lower bound on each vertex's distance from the body: the distance found at rest minus
     # every inward move since (distance is 1-Lipschitz). Unlike a ray along -n', it also sees
     # body parts beside the ray (a joint bulging next to a limb). Inside the body: no bound.
-    inside = [np.einsum("ij,ij->i", v - c.points(bv, bf), body_normals_at) < 0
-              for v, c, body_normals_at in zip(verts, corr, normals, strict=True)]
-    clearance = [np.where(ins, np.inf, c.distance) for ins, c in zip(inside, corr, strict=True)]
+    def clearance_of(v, c):
+        inward = np.einsum("ij,ij->i", v - c.points(bv, bf), c.normals(body_normals, bf)) < 0
+        return np.where(inward, np.inf, c.distance)
+
+    clearance = [clearance_of(v, c) for v, c in zip(verts, corr, strict=True)]
+    # A correspondence passed in may name body points from another frame (cloth slides over its
+    # collider), whose distance only bounds the real one from above. There a vertex also keeps
+    # no further than it can go along its -n' (every move goes that way) before it meets the
+    # body, found when it is first about to move; what lies beside the ray the body guard sees.
+    unbounded = [np.full(len(v), g_corr_in[i] is not None) for i, v in enumerate(verts)]
     floor_clamped = 0
     # An edge between two vertices held at the floor bows into a curved body by its sagitta
     # e^2 / 8R; a tenth of the longest mean edge covers body radii down to 1.25 edges.
     chord = 0.1 * max((float(norms(verts[i][e[:, 0]] - verts[i][e[:, 1]]).mean())
                        for i, e in enumerate(edges) if len(e)), default=0.0)
 
+    def room_of(k, idx):
+        """How far each vertex idx of layer k may still go inward."""
+        unknown = np.unique(idx[unbounded[k][idx]])
+        if len(unknown):
+            along = body.scene.intersect(verts[k][unknown], -normals[k][unknown]).t
+            clearance[k][unknown] = np.minimum(clearance[k][unknown], along)
+            unbounded[k][unknown] = False
+        return clearance[k][idx] - d * (k + 1) / (n_g + 1) - chord
+
     def body_floor(k, idx, move):
         """Cap inward moves so layer k keeps (k+1) d / (N+1) plus the chord allowance in front
         of the body: layers squeezed against it compress their gaps instead of entering it."""
         nonlocal floor_clamped
-        room = clearance[k][idx] - d * (k + 1) / (n_g + 1) - chord
+        room = room_of(k, idx)
         floor_clamped += int((room < move).sum())
         out = np.clip(np.minimum(move, room), 0.0, None)
         clearance[k][idx] -= out
@@ -545,7 +562,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         # A hit goes no deeper than the body lets its triangle go: where the body holds the
         # layer, the cloth around the hit stays too (else each resolve of the result digs it in further)
         corners = f[face[hit]]
-        room = (clearance[k][corners] - d * (k + 1) / (n_g + 1) - chord).max(1)
+        room = room_of(k, corners).max(1)
         amp = np.clip(np.minimum(t[hit] + d, room), 0.0, None)
         spread = _spread_from_hits(v, f, topo[k], o[hit] + n_o[hit] * t[hit, None], amp,
                                    corners.ravel(), params.get("falloff"))
@@ -581,7 +598,8 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     # Outer to inner, each lower layer is tucked under, then pushed behind, higher layers where
     # they end up: a higher layer moved after a lower one was fitted to it would undo the fit.
     push_trace_s = 0.0
-    timings["boundary_pass_s"] = timings["push_behind_s"] = 0.0
+    timings["boundary_pass_s"] = timings["push_behind_s"] = timings["body_guard_s"] = 0.0
+    backed_off = 0
     for k in range(n_g - 2, -1, -1):
         t0 = time.perf_counter()
         if params.get("boundary_pass", True):
@@ -589,8 +607,21 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         t1 = time.perf_counter()
         if params.get("push_behind", True):
             push_behind(k)
+        t2 = time.perf_counter()
+        # where the moves put cloth through the body, they are taken back (before the layers
+        # under this one are fitted to it)
+        # (a correspondence passed in bounds no distance from below: every moved triangle is asked)
+        near = np.zeros(len(verts[k])) if g_corr_in[k] is not None else clearance[k]
+        # the layer's scene serves the layers under it next: built here, it is not built twice
+        kept_out, n_back = back_off(body.scene, bv, body.edges, garr[k][0], verts[k], faces[k], edges[k], near,
+                                    scenes[k].full())
+        if n_back:
+            verts[k] = kept_out
+            backed_off += n_back
+            refresh(k)
         timings["boundary_pass_s"] += t1 - t0
-        timings["push_behind_s"] += time.perf_counter() - t1
+        timings["push_behind_s"] += t2 - t1
+        timings["body_guard_s"] += time.perf_counter() - t2
 
     # --- hidden-face removal (Fig. 4.14): triangles still crossing a higher layer
     t0 = time.perf_counter()
@@ -623,6 +654,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         "vertices_moved_boundary": moved_by["boundary"],
         "vertices_moved_push": moved_by["push"],
         "vertices_held_by_body": floor_clamped,
+        "vertices_kept_out_of_body": backed_off,
         "faces_removed": int(sum(r.sum() for r in removed)),
         "vertices_far_from_body": far,
         "vertices_on_part_borders": int(sum((x[:, 1] >= 0).sum() for x in vseg2)),

@@ -165,6 +165,44 @@ def test_a_hem_the_body_holds_a_layer_in_front_of_tucks_nothing_around_it():
     assert not again.moved[0].any()
 
 
+def test_a_correspondence_from_another_frame_never_pushes_cloth_into_the_body():
+    """Cloth frames reuse the first frame's correspondence while the cloth slides over its
+    collider: the body points it names are elsewhere now, and their distance bounds nothing.
+    A sheet 1 cm over a box, a higher sheet that dips 5 mm into the box: the lower sheet goes
+    as far down as the box lets it, not into it."""
+    box = trimesh.creation.box(extents=(1.0, 1.0, 0.4))
+    body = mesh(box.vertices + [0, 0, 0.2], box.faces)
+    v, f = sheet(size=1.4, n=30, z=0.41)
+    low, high = mesh(v, f), mesh(v * [1, 1, 0] + [0, 0, 0.395], f)
+    slid = [mesh(g.vertices + [0.3, 0, 0], f) for g in (low, high)]
+    then = resolve_layers(body, slid, boundary_pass=False, push_behind=False, remove_hidden=False)
+    res = resolve_layers(body, [low, high], correspondence=then.correspondence, remove_hidden=False)
+    g = res.garments[0]
+    assert brute_crossings(body.vertices, body.faces, low.vertices, low.faces) == 0
+    assert brute_crossings(body.vertices, body.faces, g.vertices, g.faces) == 0
+    over_box = (np.abs(g.vertices[:, :2]) < 0.5).all(1)
+    assert g.vertices[over_box, 2].min() > 0.4
+    assert np.linalg.norm(res.moved[0], axis=1).max() > 0.004  # it did go down
+
+
+def test_cloth_between_held_vertices_does_not_cut_through_a_ridge_of_the_body():
+    """A coarse twelve-sided sleeve round a square prism, pushed behind a finer one: each vertex
+    stays clear of the prism, but the flat triangles between them would cut through its ridges
+    (76 body edges through the sleeve); the moves that do so are taken back."""
+    from sample_scenes.shapes import tube
+
+    box = trimesh.creation.box(extents=(0.3, 0.3, 0.6))
+    body = mesh(box.vertices, box.faces)
+    sleeve = mesh(*tube(0.24, -0.25, 0.25, n_around=12, n_along=10))
+    over = mesh(*tube(0.216, -0.22, 0.22, n_around=96, n_along=20))
+    assert brute_crossings(body.vertices, body.faces, sleeve.vertices, sleeve.faces) == 0
+    res = resolve_layers(body, [sleeve, over], remove_hidden=False)
+    g = res.garments[0]
+    assert brute_crossings(body.vertices, body.faces, g.vertices, g.faces) == 0
+    assert res.stats["vertices_kept_out_of_body"] > 0
+    assert radial(g.vertices).min() < 0.216  # the rest of the sleeve still went behind
+
+
 def test_already_correct_garments_are_left_alone():
     from sample_scenes.shapes import tube
 

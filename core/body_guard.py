@@ -1,0 +1,104 @@
+"""Keep moved cloth out of the body: the body floor holds each vertex in front of the body, but a
+triangle between vertices held close to it can still cut through a convex edge of the body (a
+box's ridge, a wooden mannequin's joint, a fold of the collider). Such a triangle's moved
+corners go back towards where they were, half the way at a time, until nothing crosses."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .metrics import crossing_edges
+from .rays import RayScene
+from .vectors import norms
+
+# Halvings of a move before it is taken back whole (1, 1/2, 1/4, then 0 of it kept)
+_HALVINGS = 3
+
+
+def candidate_triangles(after, faces, move, clearance):
+    """Face ids of the triangles the moves may have put through the body (``move``: how far each
+    vertex moved; ``clearance``: a lower bound on each vertex's distance from the body where it
+    is now, inf inside it): a corner moved, and every corner within the triangle's longest
+    edge of the body, as every corner of a triangle meeting the body is."""
+    tri = np.flatnonzero((move[faces] > 0).any(1))
+    if not len(tri):
+        return tri
+    f = faces[tri]
+    a, b, c = (after[f[:, i]] for i in range(3))
+    longest = np.maximum(np.maximum(norms(b - a), norms(c - b)), norms(a - c))
+    return tri[(clearance[f] <= longest[:, None]).all(1)]
+
+
+def crossing_corners(body_scene, body_vertices, body_edges, vertices, faces, tri, edges, scene=None):
+    """Bool mask over ``vertices``: ends of ``edges`` that pass through the body, and corners of
+    the triangles ``tri`` (face ids) that an edge of the body passes through. ``body_edges``:
+    (pairs, lows, highs), each body edge's ends and its box column by column. ``scene``: one
+    over all of ``faces`` at ``vertices`` if there is one (else one over ``tri`` is built)."""
+    out = np.zeros(len(vertices), dtype=bool)
+    if len(edges):
+        out[edges[crossing_edges(vertices, None, body_scene, edges=edges)].ravel()] = True
+    if not len(tri):
+        return out
+    # only body edges whose box meets the triangles' box can pass through them
+    pairs, edge_lo, edge_hi = body_edges
+    used = np.unique(faces[tri])
+    near = np.ones(len(pairs), dtype=bool)
+    for axis in range(3):  # column by column: all(axis=1) on (n, 3) is slow
+        x = vertices[used, axis]
+        near &= (edge_lo[axis] <= x.max()) & (edge_hi[axis] >= x.min())
+    near = np.flatnonzero(near)
+    if not len(near):
+        return out
+    ids = None if scene is not None else tri
+    scene = scene if scene is not None else RayScene(vertices, faces[tri])
+    asked = np.zeros(len(faces), dtype=bool)
+    asked[tri] = True
+    through = near[crossing_edges(body_vertices, None, scene, edges=pairs[near])]
+    start = body_vertices[pairs[through, 0]]
+    vec = body_vertices[pairs[through, 1]] - start
+    length = norms(vec)
+    live, t_min = np.arange(len(through)), np.zeros(len(through))
+    for _ in range(4):  # each triangle of the layer an edge passes through, up to four
+        if not len(live):
+            break
+        hits = scene.intersect(start[live], vec[live], max_dist=length[live], min_dist=t_min[live])
+        live, t, face = live[hits.hit], hits.t[hits.hit], hits.face[hits.hit]
+        face = face if ids is None else ids[face]
+        out[faces[face[asked[face]]].ravel()] = True
+        t_min[live] = t + 1e-6 * length[live]
+    return out
+
+
+def back_off(body_scene, body_vertices, body_edges, before, after, faces, edges, clearance, scene=None):
+    """``after`` (a layer's vertices once moved, ``before`` as they came; ``edges`` its edges as
+    vertex pairs) with the moves that put cloth through the body taken back, halving them
+    first. ``clearance``: a lower bound on each vertex's distance from the body at ``after``
+    (inf inside it). ``scene``: a RayScene over ``faces`` at ``after`` if there is one.
+    Returns (vertices, how many went back)."""
+    move = norms(after - before)
+    clear = clearance
+    tri = candidate_triangles(after, faces, move, clear)
+    if not len(tri):
+        return after, 0
+    # edges of those triangles (both ends on one) with an end moved, both ends within the
+    # edge's length of the body: no other edge reaches it
+    corner = np.zeros(len(after), dtype=bool)
+    corner[faces[tri].ravel()] = True
+    e = edges[corner[edges[:, 0]] & corner[edges[:, 1]] & ((move[edges[:, 0]] > 0) | (move[edges[:, 1]] > 0))]
+    length = norms(after[e[:, 1]] - after[e[:, 0]])
+    e = e[(clear[e[:, 0]] <= length) & (clear[e[:, 1]] <= length)]
+    out = after.copy()
+    keep = np.ones(len(out))
+    went_back = np.zeros(len(out), dtype=bool)
+    for step in range(_HALVINGS + 1):
+        bad = crossing_corners(body_scene, body_vertices, body_edges, out, faces, tri, e,
+                               scene if step == 0 else None) & (move > 0)
+        if not bad.any():
+            break
+        keep[bad] = 0.0 if step == _HALVINGS else 0.5 * keep[bad]
+        out[bad] = before[bad] + (after[bad] - before[bad]) * keep[bad, None]
+        went_back |= bad
+        # only what has a corner that went back can cross anew (clearances no longer hold there)
+        tri = tri[bad[faces[tri]].any(1)]
+        e = edges[bad[edges[:, 0]] | bad[edges[:, 1]]]
+    return out, int(went_back.sum())
