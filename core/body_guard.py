@@ -15,20 +15,6 @@ from .vectors import norms
 _HALVINGS = 3
 
 
-def candidate_triangles(after, faces, move, clearance):
-    """Face ids of the triangles the moves may have put through the body (``move``: how far each
-    vertex moved; ``clearance``: a lower bound on each vertex's distance from the body where it
-    is now, inf inside it): a corner moved, and every corner within the triangle's longest
-    edge of the body, as every corner of a triangle meeting the body is."""
-    tri = np.flatnonzero((move[faces] > 0).any(1))
-    if not len(tri):
-        return tri
-    f = faces[tri]
-    a, b, c = (after[f[:, i]] for i in range(3))
-    longest = np.maximum(np.maximum(norms(b - a), norms(c - b)), norms(a - c))
-    return tri[(clearance[f] <= longest[:, None]).all(1)]
-
-
 def crossing_corners(body_scene, body_vertices, body_edges, vertices, faces, tri, edges, scene=None):
     """Bool mask over ``vertices``: ends of ``edges`` that pass through the body, and corners of
     the triangles ``tri`` (face ids) that an edge of the body passes through. ``body_edges``:
@@ -74,25 +60,26 @@ def back_off(body_scene, body_vertices, body_edges, before, after, faces, edges,
     vertex pairs) with the moves that put cloth through the body taken back, halving them
     first. ``clearance``: a lower bound on each vertex's distance from the body at ``after``
     (inf inside it). ``scene``: a RayScene over ``faces`` at ``after`` if there is one.
-    Returns (vertices, how many went back)."""
+    Returns (vertices, how many went back).
+
+    Only what a move touched and what is near enough to the body is asked: an edge meeting
+    the body at x has its ends |a - x| and |b - x| from it, together its length; a triangle
+    meeting it has every corner within its longest edge of x."""
     move = norms(after - before)
-    clear = clearance
-    tri = candidate_triangles(after, faces, move, clear)
-    if not len(tri):
+    moved = move > 0
+    length = norms(after[edges[:, 1]] - after[edges[:, 0]])
+    e = edges[(moved[edges[:, 0]] | moved[edges[:, 1]])
+              & (clearance[edges[:, 0]] + clearance[edges[:, 1]] <= length)]
+    near = clearance <= length.max(initial=0.0)
+    tri = np.flatnonzero(moved[faces].any(1) & near[faces].all(1))
+    if not len(tri) and not len(e):
         return after, 0
-    # edges of those triangles (both ends on one) with an end moved, both ends within the
-    # edge's length of the body: no other edge reaches it
-    corner = np.zeros(len(after), dtype=bool)
-    corner[faces[tri].ravel()] = True
-    e = edges[corner[edges[:, 0]] & corner[edges[:, 1]] & ((move[edges[:, 0]] > 0) | (move[edges[:, 1]] > 0))]
-    length = norms(after[e[:, 1]] - after[e[:, 0]])
-    e = e[(clear[e[:, 0]] <= length) & (clear[e[:, 1]] <= length)]
     out = after.copy()
     keep = np.ones(len(out))
     went_back = np.zeros(len(out), dtype=bool)
     for step in range(_HALVINGS + 1):
         bad = crossing_corners(body_scene, body_vertices, body_edges, out, faces, tri, e,
-                               scene if step == 0 else None) & (move > 0)
+                               scene if step == 0 else None) & moved
         if not bad.any():
             break
         keep[bad] = 0.0 if step == _HALVINGS else 0.5 * keep[bad]
