@@ -170,17 +170,24 @@ def _nearer_big(points32, best_d2, search, block: int = 512):
     pick = np.zeros(len(points32), dtype=np.int64)
     best = best_d2.copy()
     rows = np.arange(len(points32))
-    for b0 in range(0, len(search.big), block):
-        lo, hi = search.big_box[0, b0:b0 + block], search.big_box[1, b0:b0 + block]
+    # first the boxes within reach of the points' box at all (a figure's caps far from its sleeves)
+    reach = float(np.sqrt(best.max(initial=0.0)))
+    p_lo, p_hi = points32.min(0) - reach, points32.max(0) + reach
+    ask = search.big_box[0] <= p_hi
+    ask &= search.big_box[1] >= p_lo
+    ask = np.flatnonzero(ask.all(1))
+    for b0 in range(0, len(ask), block):
+        which = ask[b0:b0 + block]
+        lo, hi = search.big_box[0, which], search.big_box[1, which]
         gap = np.maximum(lo[None] - points32[:, None], 0) + np.maximum(points32[:, None] - hi[None], 0)
         pr, pc = np.nonzero(np.einsum("ijk,ijk->ij", gap, gap) < best[:, None])
         if not len(pr):
             continue
         d2 = np.full((len(points32), len(lo)), np.inf, dtype=np.float32)
-        d2[pr, pc] = closest_on_table(points32[pr], search.table[search.big[b0 + pc]], bary=False)
+        d2[pr, pc] = closest_on_table(points32[pr], search.table[search.big[which[pc]]], bary=False)
         j = np.argmin(d2, axis=1)
         win = d2[rows, j] < best
-        best[win], pick[win], better[win] = d2[rows, j][win], search.big[b0 + j[win]], True
+        best[win], pick[win], better[win] = d2[rows, j][win], search.big[which[j[win]]], True
     return better, pick
 
 
