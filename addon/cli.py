@@ -111,6 +111,7 @@ def _cmd_demo(args) -> int:
         f"| resolve: correspondence | {st['correspondence_s']:.3f} |",
         f"| resolve: boundary pass | {st['boundary_pass_s']:.3f} |",
         f"| resolve: push-behind | {st['push_behind_s']:.3f} |",
+        f"| resolve: body guard | {st['body_guard_s']:.3f} |",
         f"| resolve: hidden faces | {st['hidden_faces_s']:.3f} |",
         f"| resolve total ({'embree' if rays.HAVE_EMBREE else 'numpy'}) | {sec['resolve_s']:.3f} |",
         f"| operator: write results | {sec['write_s']:.3f} |",

@@ -225,7 +225,8 @@ def prepare_resolve(scene, reuse_correspondence=False) -> ResolveJob:
     for obj, a in zip([body, *garments], arrays, strict=True):
         if not len(a.triangles):
             raise LayeringInputError(f"{obj.name} has no faces after its modifiers")
-    params = {"boundary_pass": settings.boundary_pass, "remove_hidden": settings.remove_hidden}
+    params = {"boundary_pass": settings.boundary_pass, "body_guard": settings.body_guard,
+              "remove_hidden": settings.remove_hidden}
     if settings.offset > 0:
         params["offset"] = settings.offset
     probe = probe_distances(settings, parts is not None)

@@ -79,6 +79,7 @@ class DEFORMRT_PT_resolve(bpy.types.Panel):
                 row.operator("deformrt.remove_part_probe", text="", icon="X").index = k
             col.operator("deformrt.add_part_probe", text="Probe Distance per Part", icon="ADD")
         layout.prop(settings, "boundary_pass")
+        layout.prop(settings, "body_guard")
         layout.prop(settings, "remove_hidden")
         col = layout.column(align=True)
         col.scale_y = 1.3

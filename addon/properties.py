@@ -104,6 +104,12 @@ class DeformRTSceneProperties(bpy.types.PropertyGroup):
         description="Smoothly pull lower layers in under higher layers' hems and cuffs (seed Fig. 4.10)",
         default=True,
     )
+    body_guard: BoolProperty(
+        name="Keep Out of Body",
+        description="Take back moves that would put cloth through the body (sharp edges of a mannequin or a "
+                    "collider); a smooth body rarely needs it",
+        default=True,
+    )
     remove_hidden: BoolProperty(
         name="Hide Poke-Through",
         description="Leave out triangles that still cross a higher layer after the move (seed Fig. 4.14)",

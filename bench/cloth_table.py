@@ -59,10 +59,8 @@ def release(scene):
 
 
 def run_case(layers, per_sheet, frames):
-    from deformrt.addon import layer_resolve
+    from deformrt.addon import layer_resolve, mesh_io
     from deformrt.core import metrics
-
-    from deformrt.addon import mesh_io
     from deformrt.core.rays import RayScene
 
     made, scene, bake_s = baked_sheets(layers, per_sheet, frames)

@@ -108,8 +108,8 @@ def main(argv=None):
         st = res.stats
         ms_per_55k = 1000 * st["push_trace_s"] / max(st["rays_push"], 1) * 55000
         stage_rows.append([f"{tris:,}", f"{st['correspondence_s']:.3f}", f"{st['boundary_pass_s']:.3f}",
-                           f"{st['push_behind_s']:.3f}", f"{st['hidden_faces_s']:.3f}", f"{st['total_s']:.3f}",
-                           f"{st['rays_push']:,}", f"{ms_per_55k:.1f}"])
+                           f"{st['push_behind_s']:.3f}", f"{st['body_guard_s']:.3f}", f"{st['hidden_faces_s']:.3f}",
+                           f"{st['total_s']:.3f}", f"{st['rays_push']:,}", f"{ms_per_55k:.1f}"])
         print(sweep[-2], "\n", sweep[-1], flush=True)
 
     # --- parameters, stages and the naive baseline at one size
@@ -121,6 +121,7 @@ def main(argv=None):
     variants = [("default (all stages)", {}),
                 ("no boundary pass", {"boundary_pass": False}),
                 ("no push-behind", {"push_behind": False}),
+                ("no body guard", {"body_guard": False}),
                 ("no hidden-face removal", {"remove_hidden": False}),
                 ("boundary pass only", {"push_behind": False, "remove_hidden": False})]
     variants += [(f"d = {f:g} x default ({1000 * f * d0:.2f} mm)", {"offset": f * d0}) for f in (0.25, 4.0)]
@@ -169,7 +170,8 @@ def main(argv=None):
         "",
         "### Time per stage",
         "",
-        table(["triangles", "correspondence s", "boundary pass s", "push-behind s", "hidden faces s", "total s",
+        table(["triangles", "correspondence s", "boundary pass s", "push-behind s", "body guard s", "hidden faces s",
+               "total s",
                "push probe rays", "ms per 55k probe rays (tracing only)"], stage_rows),
         "",
         f"### Parameters, stages and the naive baseline ({tris:,} triangles)",

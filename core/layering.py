@@ -344,14 +344,16 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         segment_margin: garment points within sqrt(2) times their body distance plus this
             much of a place where their part meets another (a junction on the body) also trace
             against that part; default 1% of the body's diagonal (about 2 cm on a person), 0 for strict parts.
-        boundary_pass, push_behind, remove_hidden: bool stages, all on by default.
+        boundary_pass, push_behind, body_guard, remove_hidden: bool stages, all on by default.
+            The body guard takes back moves that put cloth through the body (core.body_guard):
+            a body with no sharp edges (a smooth scan) rarely needs it.
         falloff: Gaussian radius c of the boundary pass's spread, scene units; default
             4 mean edge lengths of the lower layer.
     """
     t_start = time.perf_counter()
     timings = {}
     known = {"offset", "probe_distance", "garment_segments", "global_normals", "boundary_pass", "push_behind",
-             "remove_hidden", "falloff", "scheme", "segment_links", "correspondence", "segment_margin"}
+             "body_guard", "remove_hidden", "falloff", "scheme", "segment_links", "correspondence", "segment_margin"}
     unknown = set(params) - known
     if unknown:
         raise ValueError(f"unknown parameter(s) {sorted(unknown)}; known: {sorted(known)}")
@@ -608,17 +610,18 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         if params.get("push_behind", True):
             push_behind(k)
         t2 = time.perf_counter()
-        # where the moves put cloth through the body, they are taken back (before the layers
-        # under this one are fitted to it)
-        # (a correspondence passed in bounds no distance from below: every moved triangle is asked)
-        near = np.zeros(len(verts[k])) if g_corr_in[k] is not None else clearance[k]
-        # the layer's scene serves the layers under it next: built here, it is not built twice
-        kept_out, n_back = back_off(body.scene, bv, body.edges, garr[k][0], verts[k], faces[k], edges[k], near,
-                                    scenes[k].full())
-        if n_back:
-            verts[k] = kept_out
-            backed_off += n_back
-            refresh(k)
+        if params.get("body_guard", True):
+            # where the moves put cloth through the body, they are taken back (before the layers
+            # under this one are fitted to it); a correspondence passed in bounds no distance
+            # from below, so there every moved triangle is asked. The layer's scene serves the
+            # layers under it next: built here, it is not built twice.
+            near = np.zeros(len(verts[k])) if g_corr_in[k] is not None else clearance[k]
+            kept_out, n_back = back_off(body.scene, bv, body.edges, garr[k][0], verts[k], faces[k], edges[k],
+                                        near, scenes[k].full())
+            if n_back:
+                verts[k] = kept_out
+                backed_off += n_back
+                refresh(k)
         timings["boundary_pass_s"] += t1 - t0
         timings["push_behind_s"] += t2 - t1
         timings["body_guard_s"] += time.perf_counter() - t2

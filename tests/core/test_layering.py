@@ -201,6 +201,8 @@ def test_cloth_between_held_vertices_does_not_cut_through_a_ridge_of_the_body():
     assert brute_crossings(body.vertices, body.faces, g.vertices, g.faces) == 0
     assert res.stats["vertices_kept_out_of_body"] > 0
     assert radial(g.vertices).min() < 0.216  # the rest of the sleeve still went behind
+    unguarded = resolve_layers(body, [sleeve, over], remove_hidden=False, body_guard=False).garments[0]
+    assert brute_crossings(body.vertices, body.faces, unguarded.vertices, unguarded.faces) > 0
 
 
 def test_already_correct_garments_are_left_alone():
