@@ -67,6 +67,8 @@ def back_off(body_scene, body_vertices, body_edges, before, after, faces, edges,
     meeting it has every corner within its longest edge of x."""
     move = norms(after - before)
     moved = move > 0
+    if not moved.any():
+        return after, 0
     length = norms(after[edges[:, 1]] - after[edges[:, 0]])
     e = edges[(moved[edges[:, 0]] | moved[edges[:, 1]])
               & (clearance[edges[:, 0]] + clearance[edges[:, 1]] <= length)]
