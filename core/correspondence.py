@@ -198,6 +198,8 @@ def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
     Candidates are the triangles around the ``k`` nearest vertices (a kd-tree), which
     contains the true nearest triangle whenever it has a vertex among them: always, for
     surfaces whose triangles are small against the distance to the points' neighbours.
+    Triangles far larger than most (a floor, a box's faces), which a point can be nearest to
+    with none of their corners near it, are asked directly wherever their box is in reach.
     """
     points = np.asarray(points, dtype=np.float64)
     n = len(points)
