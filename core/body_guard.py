@@ -1,14 +1,15 @@
 """Keep moved cloth out of the body: the body floor holds each vertex in front of the body, but a
 triangle between vertices held close to it can still cut through a convex edge of the body (a
 box's ridge, a wooden mannequin's joint, a fold of the collider). Such a triangle's moved
-corners go back towards where they were, half the way at a time, until nothing crosses."""
+corners go back towards where they were, half the way at a time, until the moves put nothing
+through the body."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from .metrics import crossing_edges
-from .rays import RayScene
+from .rays import RayScene, step_past_hit
 from .vectors import norms
 
 # Halvings of a move before it is taken back whole (1, 1/2, 1/4, then 0 of it kept)
@@ -43,6 +44,8 @@ def crossing_corners(body_scene, body_vertices, body_edges, vertices, faces, tri
     start = body_vertices[pairs[through, 0]]
     vec = body_vertices[pairs[through, 1]] - start
     length = norms(vec)
+    box = [[vertices[used, axis].min() for axis in range(3)], [vertices[used, axis].max() for axis in range(3)]]
+    step = step_past_hit(length, *box)
     live, t_min = np.arange(len(through)), np.zeros(len(through))
     for _ in range(4):  # each triangle of the layer an edge passes through, up to four
         if not len(live):
@@ -51,7 +54,7 @@ def crossing_corners(body_scene, body_vertices, body_edges, vertices, faces, tri
         live, t, face = live[hits.hit], hits.t[hits.hit], hits.face[hits.hit]
         face = face if ids is None else ids[face]
         out[faces[face[asked[face]]].ravel()] = True
-        t_min[live] = t + 1e-6 * length[live]
+        t_min[live] = t + step[live]
     return out
 
 
