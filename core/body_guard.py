@@ -19,8 +19,8 @@ _HALVINGS = 3
 def crossing_corners(body_scene, body_vertices, body_edges, vertices, faces, tri, edges, scene=None):
     """Bool mask over ``vertices``: ends of ``edges`` that pass through the body, and corners of
     the triangles ``tri`` (face ids) that an edge of the body passes through. ``body_edges``:
-    (pairs, lows, highs), each body edge's ends and its box column by column. ``scene``: one
-    over all of ``faces`` at ``vertices`` if there is one (else one over ``tri`` is built)."""
+    (pairs, lows, highs), each body edge's ends and its box column by column. ``scene``: a
+    callable giving one over all of ``faces`` at ``vertices``, or None (one over ``tri`` is built)."""
     out = np.zeros(len(vertices), dtype=bool)
     if len(edges):
         out[edges[crossing_edges(vertices, None, body_scene, edges=edges)].ravel()] = True
@@ -29,23 +29,24 @@ def crossing_corners(body_scene, body_vertices, body_edges, vertices, faces, tri
     # only body edges whose box meets the triangles' box can pass through them
     pairs, edge_lo, edge_hi = body_edges
     used = np.unique(faces[tri])
+    # column by column: reductions and all(axis=1) over (n, 3) rows are slow
+    lo = [float(vertices[used, axis].min()) for axis in range(3)]
+    hi = [float(vertices[used, axis].max()) for axis in range(3)]
     near = np.ones(len(pairs), dtype=bool)
-    for axis in range(3):  # column by column: all(axis=1) on (n, 3) is slow
-        x = vertices[used, axis]
-        near &= (edge_lo[axis] <= x.max()) & (edge_hi[axis] >= x.min())
+    for axis in range(3):
+        near &= (edge_lo[axis] <= hi[axis]) & (edge_hi[axis] >= lo[axis])
     near = np.flatnonzero(near)
     if not len(near):
         return out
     ids = None if scene is not None else tri
-    scene = scene if scene is not None else RayScene(vertices, faces[tri])
+    scene = scene() if scene is not None else RayScene(vertices, faces[tri])
     asked = np.zeros(len(faces), dtype=bool)
     asked[tri] = True
     through = near[crossing_edges(body_vertices, None, scene, edges=pairs[near])]
     start = body_vertices[pairs[through, 0]]
     vec = body_vertices[pairs[through, 1]] - start
     length = norms(vec)
-    box = [[vertices[used, axis].min() for axis in range(3)], [vertices[used, axis].max() for axis in range(3)]]
-    step = step_past_hit(length, *box)
+    step = step_past_hit(length, lo, hi)
     live, t_min = np.arange(len(through)), np.zeros(len(through))
     for _ in range(4):  # each triangle of the layer an edge passes through, up to four
         if not len(live):
@@ -62,7 +63,8 @@ def back_off(body_scene, body_vertices, body_edges, before, after, faces, edges,
     """``after`` (a layer's vertices once moved, ``before`` as they came; ``edges`` its edges as
     vertex pairs) with the moves that put cloth through the body taken back, halving them
     first. ``clearance``: a lower bound on each vertex's distance from the body at ``after``
-    (inf inside it). ``scene``: a RayScene over ``faces`` at ``after`` if there is one.
+    (inf inside it). ``scene``: a callable giving a RayScene over ``faces`` at ``after``, asked
+    only if a triangle needs it.
     Returns (vertices, how many went back).
 
     Only what a move touched and what is near enough to the body is asked: an edge meeting

@@ -425,6 +425,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     junctions = (body.junctions(body_seg) if margin > 0 and len(np.unique(body_seg)) > 1 and not one_part
                  else (np.zeros((0, 3)), np.zeros(0, np.int64), np.zeros(0, np.int64)))
     corr, normals, vseg, vseg2, probe_len = [], [], [], [], []
+    at_body = []  # the body's normal at each vertex's body point (the global normal unless overridden)
     far = 0
     skirts = []
     # one search for every garment that needs one: the body's kd-tree and fans are made once
@@ -446,13 +447,14 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
             # the same body point, where the body is now (posed, or the cloth has moved)
             c = BodyCorrespondence(c.triangle, c.bary, norms(v - c.points(bv, bf)))
         corr.append(c)
+        at_body.append(c.normals(body_normals, bf) if len(v) else np.zeros((0, 3)))
         if g_normals_in[i] is not None:
             n = np.asarray(g_normals_in[i], dtype=np.float64)
             if n.shape != v.shape or not np.isfinite(n).all():
                 raise ValueError(f"global_normals[{i}] must be finite with shape {v.shape}")
             n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
         else:
-            n = c.normals(body_normals, bf) if len(v) else np.zeros((0, 3))
+            n = at_body[i]
         normals.append(n)
         skirt = False
         if g_segments_in[i] is not None:
@@ -474,6 +476,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
             # bottom its normals point down, not out of the skirt)
             on_skirt = np.isin(s, (scheme.skirt, scheme.torso))
             if g_normals_in[i] is None and on_skirt.any():
+                n = normals[i] = n.copy()  # at_body keeps the body's own
                 n[on_skirt] = hull_normals(bv, body_seg, (scheme.torso, *scheme.skirt_spans), v[on_skirt])
         if local_probe and len(v):
             lv = np.einsum("ij,ij->i", c.bary, radius[bf[c.triangle]])
@@ -507,11 +510,8 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     # A lower bound on each vertex's distance from the body: the distance found at rest minus
     # every inward move since (distance is 1-Lipschitz). Unlike a ray along -n', it also sees
     # body parts beside the ray (a joint bulging next to a limb). Inside the body: no bound.
-    def clearance_of(v, c):
-        inward = np.einsum("ij,ij->i", v - c.points(bv, bf), c.normals(body_normals, bf)) < 0
-        return np.where(inward, np.inf, c.distance)
-
-    clearance = [clearance_of(v, c) for v, c in zip(verts, corr, strict=True)]
+    clearance = [np.where(np.einsum("ij,ij->i", v - c.points(bv, bf), n) < 0, np.inf, c.distance)
+                 for v, c, n in zip(verts, corr, at_body, strict=True)]
     # A correspondence passed in may name body points from another frame (cloth slides over its
     # collider), whose distance only bounds the real one from above. There a vertex also keeps
     # no further than it can go along its -n' (every move goes that way) before it meets the
@@ -617,7 +617,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
             # layers under it next: built here, it is not built twice.
             near = np.zeros(len(verts[k])) if g_corr_in[k] is not None else clearance[k]
             kept_out, n_back = back_off(body.scene, bv, body.edges, garr[k][0], verts[k], faces[k], edges[k],
-                                        near, scenes[k].full())
+                                        near, scenes[k].full)
             if n_back:
                 verts[k] = kept_out
                 backed_off += n_back
