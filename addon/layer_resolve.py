@@ -254,9 +254,14 @@ def compute_resolve(job: ResolveJob):
 
 def finish_resolve(scene, job: ResolveJob, result) -> ResolveSummary:
     """Show the result on the garments, non-destructively (main thread)."""
-    if job.reuse_correspondence and job.key not in _correspondence_cache:
-        _correspondence_cache.clear()
-        _correspondence_cache[job.key] = result.correspondence
+    normals, corr = result.found()  # garments the resolve did not trace need no body search
+    if job.reuse_correspondence:
+        kept = _correspondence_cache.get(job.key)
+        if kept is None:
+            _correspondence_cache.clear()
+            _correspondence_cache[job.key] = corr
+        else:  # garments that first met another garment on this frame
+            _correspondence_cache[job.key] = [c if c is not None else new for c, new in zip(kept, corr, strict=True)]
     garments, arrays = job.garments, job.arrays
     t1 = time.perf_counter()
     faces_hidden = []
@@ -269,7 +274,9 @@ def finish_resolve(scene, job: ResolveJob, result) -> ResolveSummary:
     write_s = time.perf_counter() - t1
     st = result.stats
     inward = []
-    for obj, a, n in zip(garments, arrays[1:], result.global_normals, strict=True):
+    for obj, a, n in zip(garments, arrays[1:], normals, strict=True):
+        if n is None:  # not traced: nothing moved, so no normal of it mattered
+            continue
         tri = a.vertices[a.triangles]
         facing = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         out = np.einsum("ij,ij->i", facing, n[a.triangles].sum(1))
@@ -336,7 +343,7 @@ def auto_segment(scene) -> str:
         _write_parts(body, parts, scheme)
         for obj, seg in zip(garments, found.segments, strict=True):
             _write_parts(obj, seg, scheme)
-    skirts = [garments[i].name for i in found.stats["skirts"]]
+    skirts = [garments[i].name for i in found.skirts]
     return (f"Segmented {body.name} and {len(garments)} garments into {scheme.name} parts from {source}"
             + (f"; skirts: {', '.join(skirts)}" if skirts else ""))
 

@@ -11,7 +11,6 @@ Inputs are never modified; every stage works on copies.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 import trimesh
@@ -30,15 +29,56 @@ from .topology import ring_distance, topology_of
 from .vectors import norms
 
 
-@dataclass
 class LayeringResult:
-    garments: list  # corrected trimesh.Trimesh per garment, hidden faces left out
-    moved: list  # (n_i, 3) displacement per garment vertex
-    removed_faces: list  # (m_i,) bool per input face
-    global_normals: list  # (n_i, 3) the n' used per garment vertex
-    correspondence: list  # BodyCorrespondence per garment (rest pose)
-    segments: list  # (n_i,) segment id per garment vertex
-    stats: dict = field(default_factory=dict)
+    """What resolve_layers returns. ``garments``: corrected trimesh.Trimesh per garment, hidden
+    faces left out; ``moved``: (n_i, 3) displacement per garment vertex; ``removed_faces``:
+    (m_i,) bool per input face; ``traced``: per garment, whether it came near another garment
+    (the rest cannot move or lose a face and skip every stage); ``stats``: counts and seconds.
+
+    ``global_normals`` (the n' per garment vertex), ``correspondence`` (BodyCorrespondence per
+    garment, rest pose) and ``segments`` (segment id per vertex) of garments that were not
+    traced are found on first use: the body search they need is most of a resolve's time."""
+
+    def __init__(self, garments, moved, removed_faces, traced, normals, correspondence, segments, skirts, stats,
+                 complete):
+        self.garments, self.moved, self.removed_faces, self.traced = garments, moved, removed_faces, traced
+        self._normals, self._corr, self._segments, self._skirts = normals, correspondence, segments, skirts
+        self.stats = stats
+        self._complete = complete  # fills the untraced garments' entries in place
+
+    def _completed(self):
+        if self._complete is not None:
+            self._complete()
+            self._complete = None
+
+    @property
+    def global_normals(self) -> list:
+        self._completed()
+        return self._normals
+
+    @property
+    def correspondence(self) -> list:
+        self._completed()
+        return self._corr
+
+    @property
+    def segments(self) -> list:
+        self._completed()
+        return self._segments
+
+    @property
+    def skirts(self) -> list:
+        """Which garments are skirts (their hem goes round both legs), sorted; stats["skirts"]
+        names the traced ones."""
+        self._completed()
+        return sorted(self._skirts)
+
+    def found(self) -> tuple[list, list]:
+        """(global normals, correspondence) per garment as the resolve found them, with None for
+        the garments it did not trace, without searching for those: what a caller that reads
+        the traced ones (or passes the correspondence back next frame) needs."""
+        return ([n if t else None for n, t in zip(self._normals, self.traced, strict=True)],
+                [c if t else None for c, t in zip(self._corr, self.traced, strict=True)])
 
 
 def _mesh_arrays(mesh, name):
@@ -53,6 +93,17 @@ def _mesh_arrays(mesh, name):
     if len(f) and (f.min() < 0 or f.max() >= len(v)):
         raise ValueError(f"{name} has faces that refer to vertices outside 0..{len(v) - 1}")
     return v, f
+
+
+def _near_another(garr, grow):
+    """Per garment (vertices, faces), whether its box grown by ``grow`` meets another's box."""
+    boxes = np.array([[v.min(0), v.max(0)] if len(v) else [[np.inf] * 3, [-np.inf] * 3] for v, _ in garr])
+    if not len(boxes):
+        return []
+    lo, hi = boxes[:, 0] - grow, boxes[:, 1] + grow
+    meet = ((lo[:, None] <= boxes[None, :, 1]) & (hi[:, None] >= boxes[None, :, 0])).all(2)
+    np.fill_diagonal(meet, False)
+    return [bool(x) for x in meet.any(1)]
 
 
 def _per_garment(value, n, name):
@@ -320,7 +371,9 @@ def _spread_from_hits(vertices, faces, topology, hit_points, amplitude, seed_ver
 def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResult:
     """Move lower garment layers behind higher ones and drop triangles that still show through.
 
-    body, garments: trimesh.Trimesh in world space, garments ordered inner to outer.
+    body, garments: trimesh.Trimesh in world space, garments ordered inner to outer. A
+        garment that comes near no other (see LayeringResult.traced) is returned as it is
+        without any work, the body search included.
     body_segments: optional int per body vertex (body part ids); garment vertices take
         the part of their nearest body point and only meet triangles of the same part.
         Without it, each connected piece of the body mesh is a part.
@@ -424,43 +477,53 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         raise ValueError(f"segment_margin must be a finite distance >= 0, got {margin}")
     junctions = (body.junctions(body_seg) if margin > 0 and len(np.unique(body_seg)) > 1 and not one_part
                  else (np.zeros((0, 3)), np.zeros(0, np.int64), np.zeros(0, np.int64)))
-    corr, normals, vseg, vseg2, probe_len = [], [], [], [], []
-    at_body = []  # the body's normal at each vertex's body point (the global normal unless overridden)
-    far = 0
-    skirts = []
-    # one search for every garment that needs one: the body's kd-tree and fans are made once
-    ask = [i for i in range(n_g) if g_corr_in[i] is None]
-    found = {}
-    if ask:
-        whole = nearest_on_surface(np.vstack([garr[i][0] for i in ask]), bv, bf, search=body.search)
-        start = np.cumsum([0] + [len(garr[i][0]) for i in ask])
-        found = {i: BodyCorrespondence(whole.triangle[a:b], whole.bary[a:b], whole.distance[a:b])
-                 for i, a, b in zip(ask, start[:-1], start[1:], strict=True)}
-    for i, (v, f) in enumerate(garr):
+    for i, (v, _) in enumerate(garr):  # all given inputs checked now: the untraced are prepared later
         c = g_corr_in[i]
-        if c is None:
-            c = found[i]
-        elif len(c.triangle) != len(v) or (len(c.triangle) and c.triangle.max() >= len(bf)):
+        if c is not None and (len(c.triangle) != len(v) or (len(c.triangle) and c.triangle.max() >= len(bf))):
             raise ValueError(f"correspondence[{i}] is for another mesh: {len(c.triangle)} points for "
                              f"{len(v)} vertices, or triangles beyond the body's {len(bf)}")
-        else:
+        n = g_normals_in[i]
+        if n is not None and (np.shape(n) != v.shape or not np.isfinite(n).all()):
+            raise ValueError(f"global_normals[{i}] must be finite with shape {v.shape}")
+        s = g_segments_in[i]
+        if s is not None and (np.shape(s) != (len(v),) or (len(s) and (np.min(s) < 0 or np.max(s) >= n_seg))):
+            raise ValueError(f"garment_segments[{i}] must be {len(v)} ids in 0..{n_seg - 1}")
+    corr, normals, vseg, vseg2, probe_len = ([None] * n_g for _ in range(5))
+    at_body = [None] * n_g  # the body's normal at each vertex's body point (the global normal unless overridden)
+    skirts = []
+    # A garment whose box, grown by three times what a stage can reach (a probe or hem ray's
+    # l_s plus d, and two moves of at most that, its own or the other's), meets no other
+    # garment's box can neither move nor lose a face: it skips every stage, the body search too.
+    reach = float(np.nanmax(radius if local_probe else l_seg, initial=0.0)) + d
+    traced = _near_another(garr, 3 * reach)
+
+    def search(ids):
+        """One body search for all of the garments ``ids`` (the body's kd-tree and fans made once)."""
+        if not ids:
+            return {}
+        whole = nearest_on_surface(np.vstack([garr[i][0] for i in ids]), bv, bf, search=body.search)
+        start = np.cumsum([0] + [len(garr[i][0]) for i in ids])
+        return {i: BodyCorrespondence(whole.triangle[a:b], whole.bary[a:b], whole.distance[a:b])
+                for i, a, b in zip(ids, start[:-1], start[1:], strict=True)}
+
+    def prepare(i, c):
+        """Garment i's correspondence c (None: searched), global normals, segments and probe
+        lengths; returns its vertices farther from the body than their probe reaches."""
+        v, f = garr[i]
+        if g_corr_in[i] is not None:
+            c = g_corr_in[i]
             # the same body point, where the body is now (posed, or the cloth has moved)
             c = BodyCorrespondence(c.triangle, c.bary, norms(v - c.points(bv, bf)))
-        corr.append(c)
-        at_body.append(c.normals(body_normals, bf) if len(v) else np.zeros((0, 3)))
+        corr[i] = c
+        at_body[i] = c.normals(body_normals, bf) if len(v) else np.zeros((0, 3))
         if g_normals_in[i] is not None:
             n = np.asarray(g_normals_in[i], dtype=np.float64)
-            if n.shape != v.shape or not np.isfinite(n).all():
-                raise ValueError(f"global_normals[{i}] must be finite with shape {v.shape}")
             n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
         else:
             n = at_body[i]
-        normals.append(n)
         skirt = False
         if g_segments_in[i] is not None:
             s = np.asarray(g_segments_in[i], dtype=np.int64)
-            if s.shape != (len(v),) or (len(s) and (s.min() < 0 or s.max() >= n_seg)):
-                raise ValueError(f"garment_segments[{i}] must be {len(v)} ids in 0..{n_seg - 1}")
             skirt = scheme is not None and bool((s == scheme.skirt).any())
         elif len(v):
             corner = bf[c.triangle, np.argmax(c.bary, axis=1)]
@@ -476,52 +539,66 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
             # bottom its normals point down, not out of the skirt)
             on_skirt = np.isin(s, (scheme.skirt, scheme.torso))
             if g_normals_in[i] is None and on_skirt.any():
-                n = normals[i] = n.copy()  # at_body keeps the body's own
+                n = n.copy()  # at_body keeps the body's own
                 n[on_skirt] = hull_normals(bv, body_seg, (scheme.torso, *scheme.skirt_spans), v[on_skirt])
+        normals[i] = n
         if local_probe and len(v):
             lv = np.einsum("ij,ij->i", c.bary, radius[bf[c.triangle]])
         else:
             lv = l_seg[s]
         if one_part:
             s = np.zeros_like(s)
-        vseg.append(s)
+        vseg[i] = s
         border = np.full(len(v), -1)
         if len(junctions[0]) and g_segments_in[i] is None and len(v):
             border = _border_segment(v, c.distance, s, junctions, margin)
-        vseg2.append(np.column_stack([s, border]))
-        probe_len.append(lv)
-        if len(v):
-            far += int((c.distance > lv).sum())
+        vseg2[i] = np.column_stack([s, border])
+        probe_len[i] = lv
+        return int((c.distance > lv).sum()) if len(v) else 0
+
+    def complete():
+        """The untraced garments' entries, for the result's first reader."""
+        rest = [i for i in range(n_g) if not traced[i]]
+        found = search([i for i in rest if g_corr_in[i] is None])
+        for i in rest:
+            prepare(i, found.get(i))
+
+    active = [i for i in range(n_g) if traced[i]]
+    found = search([i for i in active if g_corr_in[i] is None])
+    far = sum(prepare(i, found.get(i)) for i in active)
     timings["correspondence_s"] = time.perf_counter() - t0
 
     verts = [v.copy() for v, _ in garr]
     faces = [f for _, f in garr]
     # Faces never change, so each garment's edges, hem points and adjacency are found once,
     # and kept for the next frame of the same garments.
-    topo = [topology_of(f, len(v)) for v, f in zip(verts, faces, strict=True)]
-    edges = [t.edges for t in topo]
-    hems = [t.hem_vertices for t in topo]
-    fseg = [_face_segment(f, s) for f, s in zip(faces, vseg, strict=True)]
-    layouts = [_LayerLayout(faces[i], fseg[i], links) for i in range(n_g)]
-    scenes = [_SegmentScenes(verts[i], layouts[i]) for i in range(n_g)]
+    topo, edges, hems, layouts, scenes, clearance, unbounded = ([None] * n_g for _ in range(7))
+    for i in active:
+        topo[i] = topology_of(faces[i], len(verts[i]))
+        edges[i], hems[i] = topo[i].edges, topo[i].hem_vertices
+        layouts[i] = _LayerLayout(faces[i], _face_segment(faces[i], vseg[i]), links)
+        scenes[i] = _SegmentScenes(verts[i], layouts[i])
     rays = {"boundary": 0, "push": 0, "hidden": 0}
     moved_by = {"boundary": 0, "push": 0}
 
     # A lower bound on each vertex's distance from the body: the distance found at rest minus
     # every inward move since (distance is 1-Lipschitz). Unlike a ray along -n', it also sees
     # body parts beside the ray (a joint bulging next to a limb). Inside the body: no bound.
-    clearance = [np.where(np.einsum("ij,ij->i", v - c.points(bv, bf), n) < 0, np.inf, c.distance)
-                 for v, c, n in zip(verts, corr, at_body, strict=True)]
+    for i in active:
+        c = corr[i]
+        clearance[i] = np.where(np.einsum("ij,ij->i", verts[i] - c.points(bv, bf), at_body[i]) < 0, np.inf,
+                                c.distance)
     # A correspondence passed in may name body points from another frame (cloth slides over its
     # collider), whose distance only bounds the real one from above. There a vertex also keeps
     # no further than it can go along its -n' (every move goes that way) before it meets the
     # body, found when it is first about to move; what lies beside the ray the body guard sees.
-    unbounded = [np.full(len(v), g_corr_in[i] is not None) for i, v in enumerate(verts)]
+    for i in active:
+        unbounded[i] = np.full(len(verts[i]), g_corr_in[i] is not None)
     floor_clamped = 0
     # An edge between two vertices held at the floor bows into a curved body by its sagitta
     # e^2 / 8R; a tenth of the longest mean edge covers body radii down to 1.25 edges.
-    chord = 0.1 * max((float(norms(verts[i][e[:, 0]] - verts[i][e[:, 1]]).mean())
-                       for i, e in enumerate(edges) if len(e)), default=0.0)
+    chord = 0.1 * max((float(norms(verts[i][edges[i][:, 0]] - verts[i][edges[i][:, 1]]).mean())
+                       for i in active if len(edges[i])), default=0.0)
 
     def room_of(k, idx):
         """How far each vertex idx of layer k may still go inward."""
@@ -548,8 +625,8 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     def tuck_under_hems(k):
         """Boundary pass (Fig. 4.10): higher layers' hem points look outward for layer k."""
         v, f = verts[k], faces[k]
-        up = range(k + 1, n_g)
-        o = np.concatenate([verts[j][hems[j]] for j in up])
+        up = [j for j in active if j > k]
+        o = np.concatenate([verts[j][hems[j]] for j in up]) if up else np.zeros((0, 3))
         if not len(f) or not len(o):
             return
         # every higher layer's hem points at once: one scene of this layer near the hems
@@ -584,7 +661,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         # is caught too: a hit at t means the layer is (t - d) behind, and moving by t
         # leaves exactly d. Behind the farthest higher layer within reach, not the nearest.
         t, layer, _, r, secs = _trace_layers(v + normals[k] * d, -normals[k], probe_len[k] + d, vseg2[k],
-                                             scenes, range(k + 1, n_g), farthest=True,
+                                             scenes, [j for j in active if j > k], farthest=True,
                                              facing=(normals, normals[k]), skip=topo[k].loose)
         rays["push"] += r
         push_trace_s += secs
@@ -602,7 +679,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     push_trace_s = 0.0
     timings["boundary_pass_s"] = timings["push_behind_s"] = timings["body_guard_s"] = 0.0
     backed_off = 0
-    for k in range(n_g - 2, -1, -1):
+    for k in active[-2::-1]:
         t0 = time.perf_counter()
         if params.get("boundary_pass", True):
             tuck_under_hems(k)
@@ -631,8 +708,11 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     removed = [np.zeros(len(f), dtype=bool) for f in faces]
     if params.get("remove_hidden", True):
         # a layer's last scene is over where it ended up (each move builds anew): traced again here
-        built = [s.built_full() if s.vertices is v else None for s, v in zip(scenes, verts, strict=True)]
-        removed, rays["hidden"] = crossing_faces(verts, faces, edges, built)
+        built = [scenes[i].built_full() if scenes[i].vertices is verts[i] else None for i in active]
+        masks, rays["hidden"] = crossing_faces([verts[i] for i in active], [faces[i] for i in active],
+                                               [edges[i] for i in active], built)
+        for i, mask in zip(active, masks, strict=True):
+            removed[i] = mask
     timings["hidden_faces_s"] = time.perf_counter() - t0
 
     out, moved = [], []
@@ -646,7 +726,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         "segments": n_seg,
         "segments_traced": 1 if one_part else n_seg,
         "scheme": scheme.name if scheme is not None else None,
-        "skirts": skirts,
+        "skirts": list(skirts),
         "offset": d,
         "probe_distance": l_seg.tolist(),
         "probe_distance_per_vertex": bool(local_probe),
@@ -660,10 +740,12 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         "vertices_kept_out_of_body": backed_off,
         "faces_removed": int(sum(r.sum() for r in removed)),
         "vertices_far_from_body": far,
-        "vertices_on_part_borders": int(sum((x[:, 1] >= 0).sum() for x in vseg2)),
-        "scenes_built": sum(s.built for s in scenes),
+        "vertices_on_part_borders": int(sum((vseg2[i][:, 1] >= 0).sum() for i in active)),
+        "scenes_built": sum(scenes[i].built for i in active),
+        "garments_traced": len(active),
     }
-    return LayeringResult(out, moved, removed, normals, corr, vseg, stats)
+    return LayeringResult(out, moved, removed, traced, normals, corr, vseg, skirts, stats,
+                          complete if len(active) < n_g else None)
 
 
 __all__ = ["BodyCorrespondence", "LayeringResult", "resolve_layers"]

@@ -281,13 +281,49 @@ def test_degenerate_duplicate_nonmanifold_and_empty_garments():
     assert brute_crossings(g.vertices, messy.faces[keep & ~res.removed_faces[1]], jacket.vertices, jacket.faces) == 0
 
 
-def test_garment_far_from_the_body_is_reported_not_moved_wildly():
+def test_garments_far_from_the_body_are_reported_not_moved_wildly():
+    body = body_tube()
+    # both 5 m off: crossing each other, far from the body
+    far = [mesh(g.vertices + [5.0, 0, 0], g.faces) for g in noisy_sleeves()]
+    res = resolve_layers(body, far)
+    assert res.traced == [True, True]
+    assert res.stats["vertices_far_from_body"] == sum(len(g.vertices) for g in far)
+    # no move beyond two probe reaches (the hem tuck and the push; a reach: the body's radius,
+    # 15 cm, plus d), however odd the normals of the body's far side are here
+    assert np.linalg.norm(res.moved[0], axis=1).max() <= 2 * (0.15 + res.stats["offset"]) + 1e-9
+    assert not res.moved[1].any()
+
+
+def test_a_garment_near_no_other_skips_every_stage_and_its_normals_are_found_when_asked():
     body = body_tube()
     shirt, jacket = noisy_sleeves()
+    # a sleeve 5 m off, and a band round the body's top 3 m above the sleeves
     far = mesh(shirt.vertices + [5.0, 0, 0], shirt.faces)
-    res = resolve_layers(body, [far, jacket])
-    assert res.stats["vertices_far_from_body"] == len(far.vertices)
-    assert not res.moved[0].any()
+    band = mesh(jacket.vertices * [1, 1, 0.1] + [0, 0, 3.55], jacket.faces)
+    res = resolve_layers(body, [far, shirt, jacket, band])
+    assert res.traced == [False, True, True, False] and res.stats["garments_traced"] == 2
+    # the two in the middle resolve as they do alone (the body holds none of their vertices,
+    # where the gap a layer keeps would follow its place among four)
+    alone = resolve_layers(body, [shirt, jacket])
+    assert res.stats["vertices_held_by_body"] == alone.stats["vertices_held_by_body"] == 0
+    for i in (0, 1):
+        np.testing.assert_array_equal(res.moved[i + 1], alone.moved[i])
+        np.testing.assert_array_equal(res.removed_faces[i + 1], alone.removed_faces[i])
+    for i in (0, 3):
+        assert not res.moved[i].any() and not res.removed_faces[i].any()
+    normals, corr = res.found()
+    assert normals[0] is corr[0] is None and corr[1] is not None and normals[2] is not None
+    # found on first use: the nearest body points, against trimesh's own search
+    for i, g in ((0, far), (3, band)):
+        c = res.correspondence[i]
+        want, dist, _ = trimesh.proximity.closest_point(body, g.vertices)
+        np.testing.assert_allclose(c.distance, dist, atol=1e-6)
+        if i == 3:  # 5 m off, a point 1 mm along the body is as near to within float32's pick
+            np.testing.assert_allclose(c.points(body.vertices, body.faces), want, atol=1e-9)
+        assert res.global_normals[i].shape == g.vertices.shape and len(res.segments[i]) == len(g.vertices)
+    # with nothing else worn, one garment takes no time at all: there is nothing to search for
+    one = resolve_layers(body, [jacket])
+    assert one.traced == [False] and one.stats["rays_push"] == 0 and not one.moved[0].any()
 
 
 @pytest.mark.parametrize(
