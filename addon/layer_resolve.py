@@ -40,12 +40,14 @@ class ResolveSummary:
     seconds: dict = field(default_factory=dict)
     inward: list = field(default_factory=list)  # garments whose faces mostly face the body
     probe_by_part: dict = field(default_factory=dict)  # l_s the resolve used, scene units
+    alone: list = field(default_factory=list)  # garments near no other, left as they were
 
     def message(self) -> str:
         moved = max(self.max_move, default=0.0)
+        alone = f"; near no other garment, left as fitted: {', '.join(self.alone)}" if self.alone else ""
         return (f"Resolved {len(self.garments)} garments on {self.body} in {self.seconds['total_s']:.2f} s: "
                 f"max move {moved * 1000:.1f} mm, {sum(self.faces_hidden)} faces hidden "
-                f"(parts: {self.parts_source})")
+                f"(parts: {self.parts_source}){alone}")
 
 
 def layered_objects(scene):
@@ -285,7 +287,8 @@ def finish_resolve(scene, job: ResolveJob, result) -> ResolveSummary:
     summary = ResolveSummary(job.body.name, [g.name for g in garments], job.source, st,
                              [float(np.linalg.norm(m, axis=1).max(initial=0.0)) for m in result.moved], faces_hidden,
                              {"read_s": job.read_s, "resolve_s": st["total_s"], "write_s": write_s,
-                              "total_s": time.perf_counter() - job.t0}, inward)
+                              "total_s": time.perf_counter() - job.t0}, inward,
+                             alone=[g.name for g, t in zip(garments, result.traced, strict=True) if not t])
     if job.parts_known:
         summary.probe_by_part = dict(zip(get_scheme(job.scheme).parts, st["probe_distance"], strict=True))
     return summary

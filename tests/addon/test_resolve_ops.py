@@ -383,6 +383,18 @@ def test_a_garment_with_inward_faces_is_named_in_the_report(extension, tubes):
     assert overlapping_pairs(evaluated(shirt), evaluated(jacket)) == 0
 
 
+def test_garments_near_no_other_are_left_as_fitted_and_named(extension, tubes):
+    body, (shirt, jacket) = tubes
+    jacket.location.x += 5.0
+    before = evaluated(shirt)
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    report = json.loads(bpy.context.scene.deformrt.last_report)
+    assert report["message"].endswith("near no other garment, left as fitted: Shirt, Jacket")
+    after = evaluated(shirt)
+    np.testing.assert_array_equal(after[0], before[0])
+    np.testing.assert_array_equal(after[1], before[1])
+
+
 def test_panel_summary_names_skirts_far_points_and_inward_garments(extension):
     from types import SimpleNamespace
 
