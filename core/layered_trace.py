@@ -211,88 +211,106 @@ class LayeredScene:
         """The hit each ray shows; with ``layered`` False, plain ray tracing. ``min_dist``
         skips what lies closer (a ray leaving a surface starts on it). ``first``: the rays'
         first hits (``min_dist`` 0) when the caller has traced them already."""
-        o = np.asarray(origins, float).copy()
+        o = np.asarray(origins, float)
         d = np.asarray(directions, float)
         n = len(o)
-        t_total = np.zeros(n)
-        result = Visible(np.full(n, np.inf), np.full(n, -1), np.full(n, -1), np.zeros((n, 2)),
-                         np.zeros(n, bool), 0)
-        todo = np.arange(n)
-        min_dist = np.broadcast_to(np.asarray(min_dist, float), (n,)).copy()
-        cover_t = np.full(n, np.inf)  # the covering layer met just behind an ignored hit
-        cover_face = np.full(n, -1)
-        cover_bary = np.zeros((n, 2))
+        lo = np.broadcast_to(np.asarray(min_dist, float), (n,))
+        if not n:
+            return Visible(np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2)),
+                           np.zeros(0, bool), 0)
+        result = None
+        # Each round traces only the rays still going on past an ignored hit, as their own
+        # compact arrays (``rows``: which rays they are; None in the first round, all of them).
+        rows = None
+        travelled = 0.0  # how far each live ray's origin has moved on
+        cover = None  # (t, face, bary) of the covering layer met just behind an ignored hit
         for _ in range(max_skips + 1):
-            if not len(todo):
-                break
             if first is not None:
                 hits, first = first, None
             else:
-                hits = self.scene.intersect(o[todo], d[todo], min_dist=min_dist[todo])
-            # a covering layer closer than the skip distance (coincident layers) still counts
-            nearer = cover_t[todo] < hits.t
-            if nearer.any():
-                hits.t[nearer] = cover_t[todo][nearer]
-                hits.face[nearer] = cover_face[todo][nearer]
-                hits.bary[nearer] = cover_bary[todo][nearer]
+                hits = self.scene.intersect(o, d, min_dist=lo)
+            if cover is not None:
+                # a covering layer closer than the skip distance (coincident layers) still counts
+                nearer = np.flatnonzero(cover[0] < hits.t)
+                if len(nearer):
+                    hits.t[nearer], hits.face[nearer], hits.bary[nearer] = (x[nearer] for x in cover)
             obj, face = self.split(hits.face)
-            hit = hits.face >= 0
-            rejected = np.zeros(len(todo), bool)
+            rejected = np.zeros(len(o), bool)
+            cover = None
             if layered and self._cover_ids:
-                # hits on a layer something is worn over: one pass over the rays, then by layer
-                layer_of = self.object_layer[obj]
-                cand_all = np.flatnonzero(self._has_cover[layer_of])
-                by_layer = layer_of[cand_all]
-                for layer in self._cover_ids:
-                    cand = cand_all[by_layer == layer]
-                    if not len(cand):
-                        continue
-                    p = o[todo[cand]] + d[todo[cand]] * hits.t[cand, None]
-                    # a probe cannot reach what is worn over the layer from farther than its reach
-                    box, most, inside = self._cover_box[layer]
-                    if not inside:
-                        near = _box_distance(p, box) <= most
-                        if not near.all():
-                            cand, p = cand[near], p[near]
-                            if not len(cand):
-                                continue
-                    scene = self._cover(layer)
-                    g, reach = self._probe_frame(obj[cand], face[cand], hits.bary[cand])
-                    # a probe from just outside: a higher layer at the same place is in front
-                    start = p + g * self.offset
-                    covered = scene.occluded(start, -g, max_dist=reach + self.offset)
-                    rejected[cand] = covered
-                    if covered.any():
-                        c = cand[covered]
-                        # only a covering layer within the skip distance: the next round meets
-                        # anything farther. Short occlusion rays first, as layers rarely coincide.
-                        back = p[covered] - d[todo[c]] * self.eps
-                        close = scene.occluded(back, d[todo[c]], max_dist=3 * self.eps)
-                        cover_t[todo[c]] = np.inf
-                        if close.any():
-                            c, back = c[close], back[close]
-                            again_hits = scene.intersect(back, d[todo[c]], max_dist=3 * self.eps)
-                            cover_t[todo[c]] = np.where(again_hits.hit, np.maximum(again_hits.t - self.eps, 0.0),
-                                                        np.inf)
-                            cover_face[todo[c]] = again_hits.face
-                            cover_bary[todo[c]] = again_hits.bary
-            # every ray not ignored is done: its hit, or nothing (rejected rays all hit)
-            shown = np.flatnonzero(~rejected)  # integer takes: boolean ones of (n, 2) rows are slower
-            done = todo[shown]
-            cover_t[done] = np.inf
-            result.t[done] = np.where(hit[shown], t_total[done] + hits.t[shown], np.inf)
-            result.obj[done] = obj[shown]
-            result.face[done] = face[shown]
-            result.bary[done] = hits.bary[shown]  # (0, 0) on a miss already
-            again = todo[rejected]
-            result.fixed[again] = True
+                rejected, cover = self._rejected(o, d, hits, obj, face)
+            again = np.flatnonzero(rejected)
+            t = np.where(hits.face >= 0, hits.t + travelled, np.inf)
+            if result is None:
+                # the first round writes every ray at once (rays it ignores go on, and are
+                # written over when they end; any still going after max_skips show nothing)
+                result = Visible(t, obj, face, hits.bary, np.zeros(n, bool), 0)
+                if len(again):
+                    result.t[again], result.obj[again], result.face[again], result.bary[again] = np.inf, -1, -1, 0.0
+            else:
+                shown = np.flatnonzero(~rejected)  # integer takes: boolean ones of (n, 2) rows are slower
+                done = rows[shown]
+                result.t[done], result.obj[done], result.face[done] = t[shown], obj[shown], face[shown]
+                result.bary[done] = hits.bary[shown]  # (0, 0) on a miss already
+            if not len(again):
+                break
+            rows = again if rows is None else rows[again]
+            result.fixed[rows] = True
             result.skipped += len(again)
             # go on from the ignored hit
-            o[again] = o[again] + d[again] * hits.t[rejected, None]
-            t_total[again] += hits.t[rejected]
-            min_dist[again] = self.eps
-            todo = again
+            step = hits.t[again]
+            o, d = o[again] + d[again] * step[:, None], d[again]
+            travelled = (travelled[again] if np.ndim(travelled) else travelled) + step
+            lo = np.full(len(again), self.eps)
+            if cover is not None:
+                cover = tuple(x[again] for x in cover)
         return result
+
+    def _rejected(self, o, d, hits, obj, face):
+        """(rejected, cover) for rays o + t d with ``hits``: which hits lie on a layer a higher
+        one covers (the probe along -n' meets it within l_s), and per ray the covering layer
+        just behind a rejected hit, closer than the next round's skip distance (t inf: none)."""
+        rejected = np.zeros(len(o), bool)
+        cover = None
+        # hits on a layer something is worn over: one pass over the rays, then by layer
+        layer_of = self.object_layer[obj]
+        cand_all = np.flatnonzero(self._has_cover[layer_of])
+        by_layer = layer_of[cand_all]
+        for layer in self._cover_ids:
+            cand = cand_all[by_layer == layer]
+            if not len(cand):
+                continue
+            p = o[cand] + d[cand] * hits.t[cand, None]
+            # a probe cannot reach what is worn over the layer from farther than its reach
+            box, most, inside = self._cover_box[layer]
+            if not inside:
+                near = _box_distance(p, box) <= most
+                if not near.all():
+                    cand, p = cand[near], p[near]
+                    if not len(cand):
+                        continue
+            scene = self._cover(layer)
+            g, reach = self._probe_frame(obj[cand], face[cand], hits.bary[cand])
+            # a probe from just outside: a higher layer at the same place is in front
+            start = p + g * self.offset
+            covered = scene.occluded(start, -g, max_dist=reach + self.offset)
+            rejected[cand] = covered
+            if not covered.any():
+                continue
+            c = cand[covered]
+            # only a covering layer within the skip distance: the next round meets anything
+            # farther. Short occlusion rays first, as layers rarely coincide.
+            back = p[covered] - d[c] * self.eps
+            close = scene.occluded(back, d[c], max_dist=3 * self.eps)
+            if close.any():
+                c, back = c[close], back[close]
+                again_hits = scene.intersect(back, d[c], max_dist=3 * self.eps)
+                if cover is None:
+                    cover = (np.full(len(o), np.inf), np.full(len(o), -1), np.zeros((len(o), 2)))
+                cover[0][c] = np.where(again_hits.hit, np.maximum(again_hits.t - self.eps, 0.0), np.inf)
+                cover[1][c] = again_hits.face
+                cover[2][c] = again_hits.bary
+        return rejected, cover
 
 
 def _box_distance(points, box):
