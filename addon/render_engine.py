@@ -20,9 +20,8 @@ import bpy
 import numpy as np
 
 from ..core.body_facts import body_facts
-from ..core.layered_trace import LayeredScene, ProbesOnDemand
+from ..core.layered_trace import LayeredScene
 from ..core.segmentation import get_scheme, is_skirt, skirt_segments
-from ..core.topology import topology_of
 from ..core.whitted import Image, Light, Material, camera_rays, render
 from . import mesh_io
 from .layer_resolve import GLOBAL_NORMAL_ATTRIBUTE, body_parts, probe_distances
@@ -113,9 +112,7 @@ def body_probes(objects, layers, given=None, parts=None, scheme=None, traced=Non
     segment's l_s on the legs, as in the resolve (BodyFacts.probe_lengths: its linked parts'
     farthest reach, or its override). Objects outside the layering, or all of them when there
     is no body, keep the default (None), as do those whose ``traced`` (one bool per object) is
-    False: the outermost layer, which nothing is worn over, sends no probe. A garment's values
-    come as a ProbesOnDemand: a frame's probes leave near a few of its vertices only, and the
-    nearest-vertex search for all of them was most of what layering added to reading a frame."""
+    False: the outermost layer, which nothing is worn over, sends no probe."""
     if given is not None and np.ndim(given) == 0:
         return float(given)
     if given is not None and parts is None:
@@ -126,44 +123,30 @@ def body_probes(objects, layers, given=None, parts=None, scheme=None, traced=Non
     facts = body_facts(*objects[body])  # kept: the next frame of a still body asks again
     search = facts.search
     traced = [True] * len(objects) if traced is None else traced
-
-    def nearest(v):
-        """Each point's nearest body vertex (a body vertex is its own: it sits in the tree at 0)."""
-        return search.vertex_ids[search.tree.query(v, workers=-1)[1]]
-
-    if parts is not None:
-        parts = np.asarray(parts, np.int64)
-        scheme = None if scheme is None else get_scheme(scheme)
-        if scheme is not None:
-            count, links = len(scheme.parts), scheme.links()
-        else:
-            count = max(int(parts.max(initial=-1)) + 1, 0 if given is None else len(given))
-            links = np.eye(count, dtype=bool)
-        per_part = facts.probe_lengths(parts, count, links, given)
+    # a body vertex is its own nearest (a triangle's vertex sits in the tree at distance 0)
+    nearest = [None if lay is None or not go else np.arange(len(v)) if i == body
+               else search.vertex_ids[search.tree.query(v, workers=-1)[1]]
+               for i, ((v, _), lay, go) in enumerate(zip(objects, layers, traced, strict=True))]
+    if parts is None:
+        return [None if at is None else facts.radius[at] for at in nearest]
+    parts = np.asarray(parts, np.int64)
+    scheme = None if scheme is None else get_scheme(scheme)
+    if scheme is not None:
+        count, links = len(scheme.parts), scheme.links()
+    else:
+        count = max(int(parts.max(initial=-1)) + 1, 0 if given is None else len(given))
+        links = np.eye(count, dtype=bool)
+    per_part = facts.probe_lengths(parts, count, links, given)
     out = []
-    for i, ((v, f), lay, go) in enumerate(zip(objects, layers, traced, strict=True)):
-        if lay is None or not go:
+    for i, ((v, f), at) in enumerate(zip(objects, nearest, strict=True)):
+        if at is None:
             out.append(None)
-        elif i == body:
-            out.append(facts.radius if parts is None else per_part[parts])
-        elif parts is None:
-            # garment vertices look their nearest body vertex up only when a probe leaves near them
-            out.append(ProbesOnDemand(len(v), float(facts.radius.max(initial=0.0)),
-                                      lambda ids, v=v: facts.radius[nearest(v[ids])]))
-        else:
-            skirt = False
-            if scheme is not None and len(f):
-                # a skirt is told by its hems' parts: only their points are looked up now
-                hem = topology_of(f, len(v)).hem_vertices
-                seg = np.full(len(v), -1)
-                seg[hem] = parts[nearest(v[hem])]
-                skirt = is_skirt(f, seg, scheme, vertices=v, body_vertices=objects[body][0], body_segments=parts)
-
-            def find(ids, v=v, skirt=skirt):
-                seg = parts[nearest(v[ids])]
-                return per_part[skirt_segments(seg, scheme) if skirt else seg]
-
-            out.append(ProbesOnDemand(len(v), float(np.max(per_part, initial=0.0)), find))
+            continue
+        seg = parts[at]
+        if (scheme is not None and i != body and len(f)
+                and is_skirt(f, seg, scheme, vertices=v, body_vertices=objects[body][0], body_segments=parts)):
+            seg = skirt_segments(seg, scheme)
+        out.append(per_part[seg])
     return out
 
 

@@ -15,15 +15,6 @@ from .rays import RayHits, RayScene
 from .vectors import unit
 
 
-class ProbesOnDemand:
-    """An object's per-vertex l_s found only for the vertices whose probes a frame asks for:
-    ``find(vertex ids)`` gives theirs; ``bound`` is at least every one of them (the culls that
-    come before any probe need it). Most of a frame's vertices start no probe."""
-
-    def __init__(self, count, bound, find):
-        self.count, self.bound, self.find = int(count), float(bound), find
-
-
 @dataclass
 class Visible:
     t: np.ndarray  # distance along the ray (inf: nothing)
@@ -39,7 +30,7 @@ class LayeredScene:
     body; 1, 2, ...: garments inner to outer) and global normals per vertex (default: the
     object's own vertex normals). ``probe_distance`` is l_s: one distance, or a list with one
     entry per object, each a distance per vertex (the body part's radius under a garment
-    vertex, as the resolve takes it), a ProbesOnDemand, or None for ``default_probe``."""
+    vertex, as the resolve takes it) or None for ``default_probe``."""
 
     def __init__(self, objects, layers, global_normals=None, probe_distance=0.05, offset=0.0, default_probe=0.05):
         if len(objects) != len(layers):
@@ -49,17 +40,10 @@ class LayeredScene:
         if len(probe_distance) != len(objects):
             raise ValueError(f"probe_distance needs one entry per object ({len(objects)}), got {len(probe_distance)}")
         self.vertices = [np.asarray(v, float).reshape(-1, 3) for v, _ in objects]
-        self._on_demand = {i: p for i, p in enumerate(probe_distance) if isinstance(p, ProbesOnDemand)}
-        for i, p in self._on_demand.items():
-            if p.count != len(self.vertices[i]) or not (np.isfinite(p.bound) and p.bound >= 0):
-                raise ValueError(f"probe distances on demand need one per vertex ({len(self.vertices[i])}) and a "
-                                 f"finite bound >= 0: got {p.count} and {p.bound}")
-        # NaN: not found yet (on demand)
-        self._probes = [np.full(len(v), np.nan) if isinstance(p, ProbesOnDemand)
-                       else np.full(len(v), default_probe if p is None else p, float) if p is None or np.ndim(p) == 0
+        self.probes = [np.full(len(v), default_probe if p is None else p, float) if p is None or np.ndim(p) == 0
                        else np.asarray(p, float) for v, p in zip(self.vertices, probe_distance, strict=True)]
-        for i, (v, p) in enumerate(zip(self.vertices, self._probes, strict=True)):
-            if i not in self._on_demand and (p.shape != (len(v),) or not (np.isfinite(p) & (p >= 0)).all()):
+        for v, p in zip(self.vertices, self.probes, strict=True):
+            if p.shape != (len(v),) or not (np.isfinite(p) & (p >= 0)).all():
                 raise ValueError(f"probe distances must be finite and >= 0, one per vertex: got shape {p.shape}")
         self.faces = [np.asarray(f, np.int64).reshape(-1, 3) for _, f in objects]
         self.layers = list(layers)
@@ -73,13 +57,12 @@ class LayeredScene:
             if n.shape != v.shape:
                 raise ValueError(f"global normals must be one per vertex: {n.shape} for {v.shape}")
         self.offset = float(offset)
-        self._stacked_probes = self.stack(self._probes)
+        self._stacked_probes = self.stack(self.probes)
         # global normal and l_s side by side: a probe blends both from one gather of its corners
         self._stacked_frames = (np.column_stack([self.stack(self.normals), self._stacked_probes])
                                 if len(self._stacked_probes) else np.zeros((0, 4)))
         counts = np.array([len(f) for f in self.faces])
         self.first_face = np.concatenate([[0], np.cumsum(counts)])
-        self.first_vertex = np.concatenate([[0], np.cumsum([len(v) for v in self.vertices])]).astype(np.int64)
         all_v = np.vstack(self.vertices) if self.vertices else np.zeros((0, 3))
         all_f = _stack_faces(self.faces, [len(v) for v in self.vertices]) if self.faces else np.zeros((0, 3))
         self.scene = RayScene(all_v, all_f)
@@ -96,9 +79,8 @@ class LayeredScene:
                 self._cover_ids[layer] = ids
                 box = np.vstack([np.min([self.vertices[i].min(0) for i in ids], axis=0),
                                  np.max([self.vertices[i].max(0) for i in ids], axis=0)])
-                bound = [self._on_demand[i].bound if i in self._on_demand else float(self._probes[i].max(initial=0.0))
-                         for i, lay in enumerate(self.layers) if lay == layer]
-                reach = max(bound, default=0.0) + abs(self.offset)
+                reach = max((float(self.probes[i].max(initial=0.0)) for i, lay in enumerate(self.layers)
+                             if lay == layer), default=0.0) + abs(self.offset)
                 # the layer's own box inside that box grown by reach / sqrt(3) on every side lies
                 # within reach of it everywhere: no hit on the layer needs the per-hit test
                 own = [self.vertices[i] for i, lay in enumerate(self.layers) if lay == layer and len(self.vertices[i])]
@@ -122,17 +104,13 @@ class LayeredScene:
         combined scene's vertices, for ``interpolate``."""
         return np.concatenate(per_vertex) if per_vertex else np.zeros(0)
 
-    def _corners(self, obj, face):
-        """The combined scene's vertex ids of each hit triangle's corners (triangle 0's on misses)."""
-        return self.scene.faces[np.where(obj >= 0, self.first_face[np.maximum(obj, 0)] + face, 0)]
-
-    def interpolate(self, stacked, obj, face, bary, corner=None):
+    def interpolate(self, stacked, obj, face, bary):
         """Per-vertex values (``stack``ed) at hit points, blended by barycentrics; 0 on misses.
         One gather over all objects at once: grouping the hits by object costs a sort."""
         hit = obj >= 0
         if not len(stacked):
             return np.zeros((len(obj), *np.shape(stacked)[1:]))
-        corner = self._corners(obj, face) if corner is None else corner
+        corner = self.scene.faces[np.where(hit, self.first_face[np.maximum(obj, 0)] + face, 0)]
         shape = (-1, *([1] * (np.ndim(stacked) - 1)))
         u, v = bary[:, 0].reshape(shape), bary[:, 1].reshape(shape)
         # corner by corner, in place: (n, 3, ...) gathers of a frame's hits do not fit in cache
@@ -144,34 +122,12 @@ class LayeredScene:
 
     def probe_at(self, obj, face, bary):
         """l_s at hit points, blended from the objects' per-vertex probe distances."""
-        corner = self._corners(obj, face)
-        self._find_probes(corner[obj >= 0])
-        return self.interpolate(self._stacked_probes, obj, face, bary, corner)
+        return self.interpolate(self._stacked_probes, obj, face, bary)
 
     def _probe_frame(self, obj, face, bary):
         """(unit global normal, l_s) at hit points (all hits)."""
-        corner = self._corners(obj, face)
-        self._find_probes(corner)
-        frame = self.interpolate(self._stacked_frames, obj, face, bary, corner)
+        frame = self.interpolate(self._stacked_frames, obj, face, bary)
         return unit(frame[:, :3]), frame[:, 3]
-
-    def _find_probes(self, corner):
-        """Find the probe distances on demand that these vertices (combined ids) still lack."""
-        if not self._on_demand or not len(corner):
-            return
-        ask = corner[np.isnan(self._stacked_probes[corner])]
-        if not len(ask):
-            return
-        ask = np.unique(ask)
-        owner = np.searchsorted(self.first_vertex, ask, side="right") - 1
-        for i in np.unique(owner):
-            ids = ask[owner == i]
-            found = np.asarray(self._on_demand[i].find(ids - self.first_vertex[i]), float)
-            if found.shape != ids.shape or not (np.isfinite(found) & (found >= 0)).all():
-                raise ValueError(f"probe distances on demand must be finite and >= 0, one per vertex asked: "
-                                 f"got shape {found.shape} for {len(ids)}")
-            self._stacked_probes[ids] = found
-            self._stacked_frames[ids, 3] = found
 
     def blocked(self, origins, directions, max_dist, layered=True, leaving=None) -> np.ndarray:
         """Whether a shown surface lies on each ray before ``max_dist`` (shadow rays). With

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from core.layered_trace import LayeredScene, ProbesOnDemand
+from core.layered_trace import LayeredScene
 from core.whitted import Light, Material, camera_rays, render
 from tests.core.layered_cases import sheet
 
@@ -309,38 +309,6 @@ def test_probe_distance_per_vertex_follows_the_body_under_each_garment():
     assert (shown[left] == 0).all() and (shown[right] == 1).all()
     with pytest.raises(ValueError, match="one per vertex"):
         LayeredScene(objects, [1, 2], probe_distance=[ramp[:-1], None])
-
-
-def test_probe_distances_on_demand_give_what_the_whole_array_gives_and_ask_only_where_probes_leave():
-    """The same ramp as above, found on demand: the same image, and only vertices of the
-    triangles probes leave are asked for (the outer layer's, which sends none, never)."""
-    v, f = sheet(size=1.0, n=21, z=0.0)
-    up = np.tile([0.0, 0.0, 1.0], (len(v), 1))
-    objects = [(v + [0, 0, 0.03], f), (v, f)]
-    ramp = 0.01 + 0.04 * (v[:, 0] > 0)
-    asked = []
-
-    def find(ids):
-        asked.append(np.array(ids))
-        return ramp[ids]
-
-    o, d = down_rays(n=5, spread=0.3)
-    sun = [Light("SUN", (-0.3, 0.2, -1.0), (1, 1, 1))]
-    mats = [Material(colour=(1, 0, 0)), Material(colour=(0, 0, 1))]
-    whole = LayeredScene(objects, [1, 2], global_normals=[up, up], probe_distance=[ramp, None])
-    lazy = LayeredScene(objects, [1, 2], global_normals=[up, up],
-                        probe_distance=[ProbesOnDemand(len(v), ramp.max(), find), None])
-    a, b = render(whole, mats, sun, o, d), render(lazy, mats, sun, o, d)
-    for k in ("colour", "index", "fixed", "depth"):
-        np.testing.assert_array_equal(getattr(a, k), getattr(b, k))
-    ids = np.concatenate(asked)
-    assert len(ids) == len(np.unique(ids)) and 0 < len(ids) < len(v) / 4  # each vertex once, few of them
-    with pytest.raises(ValueError, match="bound"):
-        LayeredScene(objects, [1, 2], probe_distance=[ProbesOnDemand(len(v), np.inf, find), None])
-    bad = LayeredScene(objects, [1, 2], global_normals=[up, up],
-                       probe_distance=[ProbesOnDemand(len(v), 0.05, lambda ids: -ramp[ids]), None])
-    with pytest.raises(ValueError, match="finite and >= 0"):
-        bad.first_visible(o, d)
 
 
 @pytest.mark.parametrize("bad, match", [
