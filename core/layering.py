@@ -29,6 +29,14 @@ from .topology import ring_distance, topology_of
 from .vectors import norms
 
 
+def _found_on_first_use(name, doc):
+    """A LayeringResult attribute whose untraced garments' entries are found when first read."""
+    def get(self):
+        self._completed()
+        return getattr(self, name)
+    return property(get, doc=doc)
+
+
 class LayeringResult:
     """What resolve_layers returns. ``garments``: corrected trimesh.Trimesh per garment, hidden
     faces left out; ``moved``: (n_i, 3) displacement per garment vertex; ``removed_faces``:
@@ -51,20 +59,9 @@ class LayeringResult:
             self._complete()
             self._complete = None
 
-    @property
-    def global_normals(self) -> list:
-        self._completed()
-        return self._normals
-
-    @property
-    def correspondence(self) -> list:
-        self._completed()
-        return self._corr
-
-    @property
-    def segments(self) -> list:
-        self._completed()
-        return self._segments
+    global_normals = _found_on_first_use("_normals", "(n_i, 3) the n' used per garment vertex")
+    correspondence = _found_on_first_use("_corr", "BodyCorrespondence per garment (rest pose)")
+    segments = _found_on_first_use("_segments", "(n_i,) segment id per garment vertex")
 
     @property
     def skirts(self) -> list:
