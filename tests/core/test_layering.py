@@ -297,7 +297,7 @@ def test_garments_far_from_the_body_are_reported_not_moved_wildly():
 def test_a_garment_near_no_other_skips_every_stage_and_its_normals_are_found_when_asked():
     body = body_tube()
     shirt, jacket = noisy_sleeves()
-    # a sleeve 5 m off, and a band round the body's top 3 m above the sleeves
+    # a sleeve 5 m to the side, and a flat band 3 m above the body
     far = mesh(shirt.vertices + [5.0, 0, 0], shirt.faces)
     band = mesh(jacket.vertices * [1, 1, 0.1] + [0, 0, 3.55], jacket.faces)
     res = resolve_layers(body, [far, shirt, jacket, band])
@@ -318,10 +318,12 @@ def test_a_garment_near_no_other_skips_every_stage_and_its_normals_are_found_whe
         c = res.correspondence[i]
         want, dist, _ = trimesh.proximity.closest_point(body, g.vertices)
         np.testing.assert_allclose(c.distance, dist, atol=1e-6)
-        if i == 3:  # 5 m off, a point 1 mm along the body is as near to within float32's pick
+        # the band's points exactly; 5 m off, a point 1 mm along the body is as near to within
+        # float32's pick, so the sleeve's distances only
+        if i == 3:
             np.testing.assert_allclose(c.points(body.vertices, body.faces), want, atol=1e-9)
         assert res.global_normals[i].shape == g.vertices.shape and len(res.segments[i]) == len(g.vertices)
-    # with nothing else worn, one garment takes no time at all: there is nothing to search for
+    # one garment alone has nothing to be layered with: no search, no rays, no move
     one = resolve_layers(body, [jacket])
     assert one.traced == [False] and one.stats["rays_push"] == 0 and not one.moved[0].any()
 
