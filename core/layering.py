@@ -44,8 +44,9 @@ class LayeringResult:
     (the rest cannot move or lose a face and skip every stage); ``stats``: counts and seconds.
 
     ``global_normals`` (the n' per garment vertex), ``correspondence`` (BodyCorrespondence per
-    garment, rest pose) and ``segments`` (segment id per vertex) of garments that were not
-    traced are found on first use: the body search they need is most of a resolve's time."""
+    garment, rest pose) and ``segments`` (segment id per vertex) of garments whose box was far
+    from every other garment's are found on first use: the body search they need is most of a
+    resolve's time."""
 
     def __init__(self, garments, moved, removed_faces, traced, normals, correspondence, segments, skirts, stats,
                  complete):
@@ -66,16 +67,15 @@ class LayeringResult:
     @property
     def skirts(self) -> list:
         """Which garments are skirts (their hem goes round both legs), sorted; stats["skirts"]
-        names the traced ones."""
+        names those the resolve searched the body for."""
         self._completed()
         return sorted(self._skirts)
 
     def found(self) -> tuple[list, list]:
         """(global normals, correspondence) per garment as the resolve found them, with None for
-        the garments it did not trace, without searching for those: what a caller that reads
-        the traced ones (or passes the correspondence back next frame) needs."""
-        return ([n if t else None for n, t in zip(self._normals, self.traced, strict=True)],
-                [c if t else None for c, t in zip(self._corr, self.traced, strict=True)])
+        the garments whose body points it did not search, without searching for those: what a
+        caller that reads the others (or passes the correspondence back next frame) needs."""
+        return list(self._normals), list(self._corr)
 
 
 def _mesh_arrays(mesh, name):
@@ -554,15 +554,24 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         return int((c.distance > lv).sum()) if len(v) else 0
 
     def complete():
-        """The untraced garments' entries, for the result's first reader."""
-        rest = [i for i in range(n_g) if not traced[i]]
+        """The entries of the garments not searched, for the result's first reader."""
+        rest = [i for i in range(n_g) if corr[i] is None]
         found = search([i for i in rest if g_corr_in[i] is None])
         for i in rest:
             prepare(i, found.get(i))
 
-    active = [i for i in range(n_g) if traced[i]]
-    found = search([i for i in active if g_corr_in[i] is None])
-    far = sum(prepare(i, found.get(i)) for i in active)
+    searched = [i for i in range(n_g) if traced[i]]
+    found = search([i for i in searched if g_corr_in[i] is None])
+    far = sum(prepare(i, found.get(i)) for i in searched)
+    # With the normals known, closer: every move goes along a vertex's n' (at most two reaches
+    # inward: tuck, then push) and every ray one reach more, in along -n' or out along n', so a
+    # garment's triangles and rays stay in the box of v + R n' .. v - 3R n' over its vertices.
+    # Garments whose such boxes meet no other's skip the stages too (sleeves at separate heights).
+    swept = _near_another([(np.vstack([garr[i][0] + reach * normals[i], garr[i][0] - 3 * reach * normals[i]]), None)
+                           for i in searched], 0.0)
+    for i, near in zip(searched, swept, strict=True):
+        traced[i] = near
+    active = [i for i in searched if traced[i]]
     timings["correspondence_s"] = time.perf_counter() - t0
 
     verts = [v.copy() for v, _ in garr]

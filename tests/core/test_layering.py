@@ -328,6 +328,30 @@ def test_a_garment_near_no_other_skips_every_stage_and_its_normals_are_found_whe
     assert one.traced == [False] and one.stats["rays_push"] == 0 and not one.moved[0].any()
 
 
+def test_sleeves_at_other_heights_skip_the_stages_and_change_nothing(monkeypatch):
+    import core.layering as layering
+    from sample_scenes.shapes import tube
+
+    body = body_tube(height=0.8)
+    shirt, jacket = noisy_sleeves()  # crossing each other on z 0.08-0.55
+    cuff = mesh(*tube(0.17, 0.62, 0.75, n_around=64, n_along=16))  # 7 cm above them
+    garments = [shirt, cuff, jacket]
+    res = resolve_layers(body, garments)
+    # their boxes are within three probe reaches (the body's 15 cm radius), but every move and
+    # ray goes across the body, along n', never up or down it
+    assert res.traced == [True, False, True] and res.stats["garments_traced"] == 2
+    assert res.found()[1][1] is not None  # its body points were found on the way
+    # the same as tracing every garment through every stage
+    monkeypatch.setattr(layering, "_near_another", lambda garr, grow: [True] * len(garr))
+    every = layering.resolve_layers(body, garments)
+    assert every.traced == [True, True, True]
+    for a, b in zip(res.moved, every.moved, strict=True):
+        np.testing.assert_array_equal(a, b)
+    for a, b in zip(res.removed_faces, every.removed_faces, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert not res.moved[1].any() and res.moved[0].any()
+
+
 @pytest.mark.parametrize(
     "make,match",
     [
