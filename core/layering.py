@@ -92,9 +92,17 @@ def _mesh_arrays(mesh, name):
     return v, f
 
 
-def _near_another(garr, grow):
-    """Per garment (vertices, faces), whether its box grown by ``grow`` meets another's box."""
-    boxes = np.array([[v.min(0), v.max(0)] if len(v) else [[np.inf] * 3, [-np.inf] * 3] for v, _ in garr])
+def _box(*points):
+    """(low, high) corners of the box around all the given (n, 3) point arrays (empty: inverted)."""
+    pts = [p for p in points if len(p)]
+    if not pts:
+        return np.full(3, np.inf), np.full(3, -np.inf)
+    return np.min([p.min(0) for p in pts], axis=0), np.max([p.max(0) for p in pts], axis=0)
+
+
+def _near_another(boxes, grow):
+    """Per box (low, high), whether it grown by ``grow`` meets another of them."""
+    boxes = np.array(boxes).reshape(-1, 2, 3)
     if not len(boxes):
         return []
     lo, hi = boxes[:, 0] - grow, boxes[:, 1] + grow
@@ -492,7 +500,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     # l_s plus d, and two moves of at most that, its own or the other's), meets no other
     # garment's box can neither move nor lose a face: it skips every stage, the body search too.
     reach = float(np.nanmax(radius if local_probe else l_seg, initial=0.0)) + d
-    traced = _near_another(garr, 3 * reach)
+    traced = _near_another([_box(v) for v, _ in garr], 3 * reach)
 
     def search(ids):
         """One body search for all of the garments ``ids`` (the body's kd-tree and fans made once)."""
@@ -567,7 +575,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     # inward: tuck, then push) and every ray one reach more, in along -n' or out along n', so a
     # garment's triangles and rays stay in the box of v + R n' .. v - 3R n' over its vertices.
     # Garments whose such boxes meet no other's skip the stages too (sleeves at separate heights).
-    swept = _near_another([(np.vstack([garr[i][0] + reach * normals[i], garr[i][0] - 3 * reach * normals[i]]), None)
+    swept = _near_another([_box(garr[i][0] + reach * normals[i], garr[i][0] - 3 * reach * normals[i])
                            for i in searched], 0.0)
     for i, near in zip(searched, swept, strict=True):
         traced[i] = near
