@@ -153,6 +153,9 @@ class LayeredScene:
             ask, o, d, dist = ask[keep], o[keep], d[keep], dist[keep]
         own = self.object_layer[np.full(len(out), -1) if leaving is None else np.asarray(leaving)][ask]
         travelled = np.zeros(len(ask))
+        # rays whose first hit needs the layered test, from every round: traced on in one batch
+        # at the end (the layered loop's rounds cost as much for a few rays as for many)
+        pending = []
         for _ in range(4):
             # the cheap test first: a plain first hit on a lower layer this close is a poke-through
             hits = self.scene.intersect(o, d, max_dist=dist)
@@ -170,8 +173,8 @@ class LayeredScene:
             out[ask[rest & ~self._has_cover[layer]]] = True
             check = rest & self._has_cover[layer]
             if check.any():
-                known = RayHits(hits.t[check], hits.face[check], hits.bary[check], self.scene.normals_of)
-                out[ask[check]] = self.first_visible(o[check], d[check], first=known).t < dist[check]
+                pending.append((ask[check], o[check], d[check], dist[check], hits.t[check], hits.face[check],
+                                hits.bary[check]))
             if not poke.any():
                 break
             step = hits.t[poke] + self.eps
@@ -179,6 +182,10 @@ class LayeredScene:
             dist, travelled = dist[poke] - step, travelled[poke] + step
         else:
             out[ask] = False
+        if pending:
+            rays, o, d, dist, t, face, bary = (np.concatenate(x) for x in zip(*pending, strict=True))
+            known = RayHits(t, face, bary, self.scene.normals_of)
+            out[rays] = self.first_visible(o, d, first=known).t < dist
         return out
 
     def _scene_of(self, ids):
