@@ -167,8 +167,10 @@ def main(argv=None):
                f"({len(body.faces) + len(alone[0].faces):,} triangles), nothing to layer it with: {one_secs:.3f} s "
                f"({one.stats['garments_traced']} garments traced), max displacement "
                f"{float(np.abs(one.moved[0]).max()):.1e}. Four sleeves at separate heights, 4 cm apart: "
-               f"{spaced_secs:.3f} s ({spaced.stats['garments_traced']} of 4 through the stages; each searched for "
-               f"its body points, correspondence {spaced.stats['correspondence_s']:.3f} s), max displacement "
+               f"{spaced_secs:.3f} s ({spaced.stats['garments_traced']} of 4 through the stages, "
+               f"{sum(c is not None for c in spaced.found()[1])} of 4 searched for their body points: the normals "
+               f"of the body near each say its moves and rays stay at its own height; correspondence stage "
+               f"{spaced.stats['correspondence_s']:.3f} s), max displacement "
                f"{max(float(np.abs(m).max()) for m in spaced.moved):.1e}.")
     print(nothing)
 

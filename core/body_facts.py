@@ -40,6 +40,7 @@ class BodyFacts:
         # own read-only copies: what is kept must not change under the key it is kept by
         self.vertices, self.faces = _frozen(vertices), _frozen(faces)
         self._normals = self._radius = self._search = self._pieces = self._scene = self._edges = None
+        self._normal_agreement = None
         self._junctions = {}
 
     @property
@@ -78,6 +79,17 @@ class BodyFacts:
         if self._search is None:
             self._search = surface_search(self.vertices, self.faces, 8)
         return self._search
+
+    @property
+    def normal_agreement(self) -> np.ndarray:
+        """Per triangle, the least dot product between two of its corners' normals: a blend of
+        them by barycentric weights is at least its square root long (0 where they part by 90
+        degrees or more, or a corner has no normal)."""
+        if self._normal_agreement is None:
+            a, b, c = (self.normals[self.faces[:, k]] for k in range(3))
+            dots = [np.einsum("ij,ij->i", x, y) for x, y in ((a, b), (b, c), (a, c))]
+            self._normal_agreement = _frozen(np.minimum(np.minimum(dots[0], dots[1]), dots[2]))
+        return self._normal_agreement
 
     @property
     def pieces(self) -> np.ndarray:

@@ -192,7 +192,7 @@ def _nearer_big(points32, best_d2, search, block: int = 512):
 
 
 def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
-                       chunk: int = 4096, search: SurfaceSearch | None = None) -> BodyCorrespondence:
+                       chunk: int = 4096, search: SurfaceSearch | None = None, near=None) -> BodyCorrespondence:
     """Nearest point on a triangle surface for each point.
 
     Candidates are the triangles around the ``k`` nearest vertices (a kd-tree), which
@@ -200,6 +200,8 @@ def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
     surfaces whose triangles are small against the distance to the points' neighbours.
     Triangles far larger than most (a floor, a box's faces), which a point can be nearest to
     with none of their corners near it, are asked directly wherever their box is in reach.
+    ``near``: the points' ``k`` nearest tree points (``search.tree.query``'s indices), when the
+    caller has asked already.
     """
     points = np.asarray(points, dtype=np.float64)
     n = len(points)
@@ -207,9 +209,9 @@ def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
         return BodyCorrespondence(np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0))
     if search is None or search.incident.shape[1] != ring_width:
         search = surface_search(vertices, faces, ring_width)
-    k = min(k, search.tree.n)
-    _, near = search.tree.query(points, k=k, workers=-1)
-    near = near.reshape(n, -1)
+    if near is None:
+        _, near = search.tree.query(points, k=min(k, search.tree.n), workers=-1)
+    near = np.asarray(near).reshape(n, -1)
     best_t = np.zeros(n, dtype=np.int64)
     best_w = np.zeros((n, 3))
     best_d = np.zeros(n)

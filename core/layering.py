@@ -18,10 +18,7 @@ from scipy.spatial import cKDTree
 
 from .body_facts import body_facts
 from .body_guard import back_off
-from .correspondence import (
-    BodyCorrespondence,
-    nearest_on_surface,
-)
+from .correspondence import BodyCorrespondence, closest_on_table, nearest_on_surface, triangle_table
 from .hidden_faces import crossing_faces
 from .rays import RayScene, step_past_hit
 from .segmentation import get_scheme, hull_normals, is_skirt, skirt_segments
@@ -109,6 +106,65 @@ def _near_another(boxes, grow):
     meet = ((lo[:, None] <= boxes[None, :, 1]) & (hi[:, None] >= boxes[None, :, 0])).all(2)
     np.fill_diagonal(meet, False)
     return [bool(x) for x in meet.any(1)]
+
+
+def _swept_bound(v, near, nearest_distance, body, reach):
+    """A box holding v + s n' (s from -3 reach to reach) for each of the points ``v`` and the
+    global normal n' its body search will give it, before searching. The search picks a
+    triangle around the point's nearest body vertices (``near``, the tree points) or a larger
+    one nearer than the nearest vertex (``nearest_distance``), and n' is a blend of that
+    triangle's corner normals made unit: the box follows the normals of all those triangles."""
+    search = body.search
+    picked = np.zeros(len(body.faces) + 1, dtype=bool)  # one more: the -1 padding lands there
+    picked[search.incident[near].ravel()] = True
+    lo, hi = v.min(0), v.max(0)
+    if len(search.big):
+        picked[_big_in_reach(v, nearest_distance, body)] = True
+    tri = np.flatnonzero(picked[:-1])
+    if not len(tri):
+        return lo - 3 * reach, hi + 3 * reach
+    corners = body.normals[body.faces[tri].ravel()]
+    # a blend of unit vectors whose pairwise dot products are at least c is at least sqrt(c)
+    # long, and each of its components lies between the corners' (and 0, for a blend of length 0)
+    shortest = float(np.sqrt(max(float(body.normal_agreement[tri].min()), 0.0)))
+    low, high = np.minimum(corners.min(0), 0.0), np.maximum(corners.max(0), 0.0)
+    if shortest > 0:
+        low, high = low / shortest, high / shortest
+    else:
+        low, high = np.full(3, -1.0), np.full(3, 1.0)
+    # float64 barycentrics may stray past [0, 1] by round-off
+    low, high = np.clip(low - 1e-9, -1.0, 1.0), np.clip(high + 1e-9, -1.0, 1.0)
+    ends = np.array([reach * low, reach * high, -3 * reach * low, -3 * reach * high])
+    return lo + ends.min(0), hi + ends.max(0)
+
+
+def _big_in_reach(points, nearest_distance, body, budget=1_000_000):
+    """The body's large triangles (SurfaceSearch.big) that some point is nearer to than to its
+    nearest body vertex: the only ones the search can pick over the triangles around that vertex."""
+    search = body.search
+    size = float(np.ptp(body.vertices, 0).max())
+    reach = nearest_distance * (1 + 1e-5) + 1e-5 * size  # float32 boxes and distances in the search
+    big_lo = search.big_box[0].astype(np.float64) + search.centre
+    big_hi = search.big_box[1].astype(np.float64) + search.centre
+    lo, hi = points.min(0) - reach.max(initial=0.0), points.max(0) + reach.max(initial=0.0)
+    near = np.flatnonzero(((big_lo <= hi) & (big_hi >= lo)).all(1))
+    if not len(near):
+        return near
+    # the points whose box distance to some of these comes within their reach, pair by pair
+    box_lo, box_hi = big_lo[near].min(0), big_hi[near].max(0)
+    gap = norms(np.maximum(box_lo - points, 0) + np.maximum(points - box_hi, 0))
+    ask = np.flatnonzero(gap <= reach)
+    if len(ask) * len(near) > budget:  # too many pairs to weigh: every one of them may be picked
+        return search.big[near]
+    p, r = points[ask], reach[ask]
+    g = np.maximum(big_lo[near][None] - p[:, None], 0) + np.maximum(p[:, None] - big_hi[near][None], 0)
+    pi, ti = np.nonzero(np.einsum("ijk,ijk->ij", g, g) <= (r * r)[:, None])
+    if not len(pi):
+        return near[:0]
+    faces = body.faces[search.big[near[ti]]]
+    a, b, c = (body.vertices[faces[:, k]] for k in range(3))
+    d2 = closest_on_table(p[pi], triangle_table(a, b, c), bary=False)
+    return np.unique(search.big[near[ti[d2 <= r[pi] ** 2]]])
 
 
 def _per_garment(value, n, name):
@@ -501,12 +557,35 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     # garment's box can neither move nor lose a face: it skips every stage, the body search too.
     reach = float(np.nanmax(radius if local_probe else l_seg, initial=0.0)) + d
     traced = _near_another([_box(v) for v, _ in garr], 3 * reach)
+    # Closer, before the body search: each garment's box of v + R n' .. v - 3R n' (the stages'
+    # reach, see below) bounded by the normals of the body near it, from the nearest body vertices
+    # the search asks first anyway. Garments whose bound meets no other's skip the search too
+    # (sleeves at separate heights). Not with a scheme: a skirt takes normals off a hull instead.
+    nearest = {}  # garment -> its vertices' nearest body vertices, for the search
+    if scheme is None and sum(traced) > 1:
+        ids = [i for i in range(n_g) if traced[i]]
+        ask = [i for i in ids if g_corr_in[i] is None and g_normals_in[i] is None and len(garr[i][0])]
+        # a garment whose own box meets another's is near it whatever its normals (the common case)
+        if ask and not all(_near_another([_box(garr[i][0]) for i in ids], 0.0)):
+            k_near = min(2, body.search.tree.n)
+            dist, near = body.search.tree.query(np.vstack([garr[i][0] for i in ask]), k=k_near, workers=-1)
+            dist, near = np.reshape(dist, (len(near), -1)), np.reshape(near, (len(near), -1))
+            start = np.cumsum([0] + [len(garr[i][0]) for i in ask])
+            bounds = {}
+            for i, a, b in zip(ask, start[:-1], start[1:], strict=True):
+                nearest[i] = near[a:b]
+                bounds[i] = _swept_bound(garr[i][0], near[a:b], dist[a:b, 0], body, reach)
+            boxes = [bounds[i] if i in bounds else (_box(garr[i][0])[0] - 3 * reach, _box(garr[i][0])[1] + 3 * reach)
+                     for i in ids]
+            for i, near_other in zip(ids, _near_another(boxes, 0.0), strict=True):
+                traced[i] = near_other
 
     def search(ids):
         """One body search for all of the garments ``ids`` (the body's kd-tree and fans made once)."""
         if not ids:
             return {}
-        whole = nearest_on_surface(np.vstack([garr[i][0] for i in ids]), bv, bf, search=body.search)
+        known = np.vstack([nearest[i] for i in ids]) if all(i in nearest for i in ids) else None
+        whole = nearest_on_surface(np.vstack([garr[i][0] for i in ids]), bv, bf, search=body.search, near=known)
         start = np.cumsum([0] + [len(garr[i][0]) for i in ids])
         return {i: BodyCorrespondence(whole.triangle[a:b], whole.bary[a:b], whole.distance[a:b])
                 for i, a, b in zip(ids, start[:-1], start[1:], strict=True)}

@@ -336,11 +336,16 @@ def test_sleeves_at_other_heights_skip_the_stages_and_change_nothing(monkeypatch
     shirt, jacket = noisy_sleeves()  # crossing each other on z 0.08-0.55
     cuff = mesh(*tube(0.17, 0.62, 0.75, n_around=64, n_along=16))  # 7 cm above them
     garments = [shirt, cuff, jacket]
+    searched = []
+    search = layering.nearest_on_surface
+    monkeypatch.setattr(layering, "nearest_on_surface",
+                        lambda p, *a, **k: searched.append(len(p)) or search(p, *a, **k))
     res = resolve_layers(body, garments)
     # their boxes are within three probe reaches (the body's 15 cm radius), but every move and
-    # ray goes across the body, along n', never up or down it
+    # ray goes across the body, along n', never up or down it: the normals of the body near
+    # the cuff say so before its body points are searched
     assert res.traced == [True, False, True] and res.stats["garments_traced"] == 2
-    assert res.found()[1][1] is not None  # its body points were found on the way
+    assert res.found()[1][1] is None and searched == [len(shirt.vertices) + len(jacket.vertices)]
     # the same as tracing every garment through every stage
     monkeypatch.setattr(layering, "_near_another", lambda garr, grow: [True] * len(garr))
     every = layering.resolve_layers(body, garments)
@@ -350,6 +355,56 @@ def test_sleeves_at_other_heights_skip_the_stages_and_change_nothing(monkeypatch
     for a, b in zip(res.removed_faces, every.removed_faces, strict=True):
         np.testing.assert_array_equal(a, b)
     assert not res.moved[1].any() and res.moved[0].any()
+    # and what is found for the cuff when asked is what the search gives it
+    np.testing.assert_array_equal(res.global_normals[1], every.global_normals[1])
+    np.testing.assert_array_equal(res.correspondence[1].triangle, every.correspondence[1].triangle)
+
+
+@pytest.mark.parametrize("body_kind", ["capped tube", "box on a floor", "coarse box", "hexagonal tube"])
+def test_the_bound_before_the_search_holds_every_normal_the_search_gives(body_kind):
+    """Points near sharp edges, caps of long fan triangles and a floor of two triangles:
+    v + R n' and v - 3R n' stay in the box _swept_bound gives, for the n' nearest_on_surface finds."""
+    import core.layering as layering
+    from core.body_facts import body_facts
+    from core.correspondence import nearest_on_surface
+
+    rng = np.random.default_rng(3)
+    box = trimesh.creation.box(extents=[0.4, 0.3, 0.5])
+    if body_kind == "capped tube":
+        body = body_tube(n=48)
+        targets = [[0.0, 0.0, 0.62], [0.1, 0.0, 0.61], [0.16, 0.0, 0.3]]  # over the fan cap, its rim, the side
+    elif body_kind == "box on a floor":
+        fine = slab_body(size=0.4, thickness=0.4, subdivisions=3)  # flat faces: normals exactly along the axes
+        floor = mesh(np.array([[-3, -3, -0.4], [3, -3, -0.4], [3, 3, -0.4], [-3, 3, -0.4]], float),
+                     np.array([[0, 1, 2], [0, 2, 3]]))
+        body = trimesh.util.concatenate([fine, floor])
+        # above the floor far from the box, where its nearest vertices are the box's: the floor's
+        # two triangles are nearer than any triangle around them
+        targets = [[1.0, 0.0, -0.37], [0.0, -1.5, -0.35], [0.3, 0.0, -0.3]]
+    elif body_kind == "coarse box":
+        body = box  # 12 triangles, corner normals 70 degrees apart: a face's middle blends them to its normal
+        targets = [[0.22, 0.0, 0.0], [0.0, 0.17, 0.0], [0.0, 0.0, 0.27], [0.21, 0.16, 0.26]]
+    else:
+        from sample_scenes.shapes import tube
+
+        # six sides: corner normals 60 degrees apart, a side's middle blends two of them to a normal
+        # longer along the side's axis than either (cos 30 degrees)
+        body = mesh(*tube(0.15, 0.0, 0.6, n_around=6, n_along=4))
+        targets = [[0.0, 0.15, 0.3], [0.0, -0.16, 0.2], [0.14, 0.08, 0.4]]
+    facts = body_facts(np.asarray(body.vertices, float), np.asarray(body.faces))
+    reach = 0.07
+    lo, hi = facts.vertices.min(0), facts.vertices.max(0)
+    patches = [np.asarray(t) + rng.normal(scale=0.01, size=(200, 3)) for t in targets]
+    # and patches of any size anywhere around the body, up to 5 cm off it
+    patches += [rng.uniform(lo - 0.05, hi + 0.05) + rng.normal(scale=rng.uniform(0.005, 0.1), size=(300, 3))
+                for _ in range(10)]
+    for v in patches:
+        dist, near = facts.search.tree.query(v, k=2)
+        box_lo, box_hi = layering._swept_bound(v, near, dist[:, 0], facts, reach)
+        found = nearest_on_surface(v, facts.vertices, facts.faces, search=facts.search)
+        n = found.normals(facts.normals, facts.faces)
+        for end in (v + reach * n, v - 3 * reach * n):
+            assert (end >= box_lo - 1e-12).all() and (end <= box_hi + 1e-12).all()
 
 
 @pytest.mark.parametrize(
