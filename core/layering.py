@@ -138,6 +138,35 @@ def _swept_bound(v, near, nearest_distance, body, reach):
     return lo + ends.min(0), hi + ends.max(0)
 
 
+def _apart_before_search(garr, traced, body, reach, searchable):
+    """Before any body search, clears ``traced`` (in place) for the garments whose box of
+    v + R n' .. v - 3R n' (R = ``reach``: every stage's moves and rays stay in it, see
+    resolve_layers), bounded by _swept_bound, meets no other's. A garment not ``searchable``
+    (its correspondence or normals given) keeps the box of v grown by 3R. Returns the nearest
+    body vertices asked on the way, per garment, for its search."""
+    ids = [i for i in range(len(garr)) if traced[i]]
+    ask = [i for i in ids if searchable[i] and len(garr[i][0])]
+    # a garment whose own box meets another's is near it whatever its normals (the common case)
+    if len(ids) < 2 or not ask or all(_near_another([_box(garr[i][0]) for i in ids], 0.0)):
+        return {}
+    dist, near = body.search.tree.query(np.vstack([garr[i][0] for i in ask]), k=min(2, body.search.tree.n),
+                                        workers=-1)
+    dist, near = np.reshape(dist, (len(near), -1)), np.reshape(near, (len(near), -1))
+    start = np.cumsum([0] + [len(garr[i][0]) for i in ask])
+    nearest = {i: near[a:b] for i, a, b in zip(ask, start[:-1], start[1:], strict=True)}
+    boxes = []
+    for i in ids:
+        if i in nearest:
+            a = start[ask.index(i)]
+            boxes.append(_swept_bound(garr[i][0], nearest[i], dist[a:a + len(garr[i][0]), 0], body, reach))
+        else:
+            lo, hi = _box(garr[i][0])
+            boxes.append((lo - 3 * reach, hi + 3 * reach))
+    for i, near_other in zip(ids, _near_another(boxes, 0.0), strict=True):
+        traced[i] = near_other
+    return nearest
+
+
 def _big_in_reach(points, nearest_distance, body, budget=1_000_000):
     """The body's large triangles (SurfaceSearch.big) that some point is nearer to than to its
     nearest body vertex: the only ones the search can pick over the triangles around that vertex."""
@@ -557,28 +586,12 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     # garment's box can neither move nor lose a face: it skips every stage, the body search too.
     reach = float(np.nanmax(radius if local_probe else l_seg, initial=0.0)) + d
     traced = _near_another([_box(v) for v, _ in garr], 3 * reach)
-    # Closer, before the body search: each garment's box of v + R n' .. v - 3R n' (the stages'
-    # reach, see below) bounded by the normals of the body near it, from the nearest body vertices
-    # the search asks first anyway. Garments whose bound meets no other's skip the search too
-    # (sleeves at separate heights). Not with a scheme: a skirt takes normals off a hull instead.
-    nearest = {}  # garment -> its vertices' nearest body vertices, for the search
-    if scheme is None and sum(traced) > 1:
-        ids = [i for i in range(n_g) if traced[i]]
-        ask = [i for i in ids if g_corr_in[i] is None and g_normals_in[i] is None and len(garr[i][0])]
-        # a garment whose own box meets another's is near it whatever its normals (the common case)
-        if ask and not all(_near_another([_box(garr[i][0]) for i in ids], 0.0)):
-            k_near = min(2, body.search.tree.n)
-            dist, near = body.search.tree.query(np.vstack([garr[i][0] for i in ask]), k=k_near, workers=-1)
-            dist, near = np.reshape(dist, (len(near), -1)), np.reshape(near, (len(near), -1))
-            start = np.cumsum([0] + [len(garr[i][0]) for i in ask])
-            bounds = {}
-            for i, a, b in zip(ask, start[:-1], start[1:], strict=True):
-                nearest[i] = near[a:b]
-                bounds[i] = _swept_bound(garr[i][0], near[a:b], dist[a:b, 0], body, reach)
-            boxes = [bounds[i] if i in bounds else (_box(garr[i][0])[0] - 3 * reach, _box(garr[i][0])[1] + 3 * reach)
-                     for i in ids]
-            for i, near_other in zip(ids, _near_another(boxes, 0.0), strict=True):
-                traced[i] = near_other
+    # Closer, before the body search: garments whose reach, bounded by the normals of the body
+    # near them, meets no other's skip the search too (sleeves at separate heights). Not with a
+    # scheme: a skirt takes its normals off a hull instead.
+    searchable = [g_corr_in[i] is None and g_normals_in[i] is None for i in range(n_g)]
+    # garment -> its vertices' nearest body vertices, asked there for the search
+    nearest = _apart_before_search(garr, traced, body, reach, searchable) if scheme is None else {}
 
     def search(ids):
         """One body search for all of the garments ``ids`` (the body's kd-tree and fans made once)."""
