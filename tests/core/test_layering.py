@@ -328,13 +328,16 @@ def test_a_garment_near_no_other_skips_every_stage_and_its_normals_are_found_whe
     assert one.traced == [False] and one.stats["rays_push"] == 0 and not one.moved[0].any()
 
 
-def test_sleeves_at_other_heights_skip_the_stages_and_change_nothing(monkeypatch):
+@pytest.mark.parametrize("scale", [1.0, 1e-3, 1e3])
+def test_sleeves_at_other_heights_skip_the_stages_and_change_nothing(monkeypatch, scale):
     import core.layering as layering
     from sample_scenes.shapes import tube
 
     body = body_tube(height=0.8)
     shirt, jacket = noisy_sleeves()  # crossing each other on z 0.08-0.55
     cuff = mesh(*tube(0.17, 0.62, 0.75, n_around=64, n_along=16))  # 7 cm above them
+    # at millimetre and kilometre scales too
+    body, shirt, cuff, jacket = (mesh(m.vertices * scale, m.faces) for m in (body, shirt, cuff, jacket))
     garments = [shirt, cuff, jacket]
     searched = []
     search = layering.nearest_on_surface
