@@ -153,18 +153,17 @@ def _apart_before_search(garr, traced, body, reach, searchable):
                                         workers=-1)
     dist, near = np.reshape(dist, (len(near), -1)), np.reshape(near, (len(near), -1))
     start = np.cumsum([0] + [len(garr[i][0]) for i in ask])
-    nearest = {i: near[a:b] for i, a, b in zip(ask, start[:-1], start[1:], strict=True)}
+    rows = {i: slice(a, b) for i, a, b in zip(ask, start[:-1], start[1:], strict=True)}
     boxes = []
     for i in ids:
-        if i in nearest:
-            a = start[ask.index(i)]
-            boxes.append(_swept_bound(garr[i][0], nearest[i], dist[a:a + len(garr[i][0]), 0], body, reach))
+        if i in rows:
+            boxes.append(_swept_bound(garr[i][0], near[rows[i]], dist[rows[i], 0], body, reach))
         else:
             lo, hi = _box(garr[i][0])
             boxes.append((lo - 3 * reach, hi + 3 * reach))
     for i, near_other in zip(ids, _near_another(boxes, 0.0), strict=True):
         traced[i] = near_other
-    return nearest
+    return {i: near[r] for i, r in rows.items()}
 
 
 def _big_in_reach(points, nearest_distance, body, budget=1_000_000):
