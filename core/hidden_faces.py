@@ -70,9 +70,15 @@ def crossing_faces(vertices, faces, edges, scenes=None) -> tuple[list, int]:
         if not sum(len(p) for p in picks):
             continue
         scene = scenes[j] if scenes is not None and scenes[j] is not None else RayScene(vertices[j], faces[j])
-        o = np.vstack([start[k][p] for k, p in zip(others, picks, strict=True)])
-        d = np.vstack([vec[k][p] for k, p in zip(others, picks, strict=True)])
-        tmax = np.concatenate([length[k][p] for k, p in zip(others, picks, strict=True)])
+        # gathered straight into one array per quantity (no per-layer pieces to join)
+        total = sum(len(p) for p in picks)
+        o, d, tmax = np.empty((total, 3)), np.empty((total, 3)), np.empty(total)
+        at = 0
+        for k, p in zip(others, picks, strict=True):
+            np.take(start[k], p, axis=0, out=o[at:at + len(p)])
+            np.take(vec[k], p, axis=0, out=d[at:at + len(p)])
+            np.take(length[k], p, out=tmax[at:at + len(p)])
+            at += len(p)
         owner = np.concatenate([np.full(len(p), k) for k, p in zip(others, picks, strict=True)])
         index = np.concatenate(picks)
         rays += len(o)

@@ -317,15 +317,15 @@ class RayScene:
         if self._scene is None:
             out[idx] = self._fallback(o[idx], d[idx], tmin[idx], tmax[idx])[1] >= 0
             return out
-        start = o[idx] if min_dist is None else o[idx] + d[idx] * tmin[idx, None]
-        org = (start - self._center).astype(np.float32)
-        dirs = d[idx].astype(np.float32)
-        dist = _float32_dist(tmax[idx] - tmin[idx])
+        o, d, lo, span = o[idx], d[idx], None if min_dist is None else tmin[idx], tmax[idx] - tmin[idx]
 
+        # each worker converts its own slice to float32, so that runs on every core too
         def run(sl):
-            return self._scene.run(org[sl], dirs[sl], dists=dist[sl].copy(), query="OCCLUDED")
+            start = o[sl] if lo is None else o[sl] + d[sl] * lo[sl, None]
+            return self._scene.run((start - self._center).astype(np.float32), d[sl].astype(np.float32),
+                                   dists=_float32_dist(span[sl]), query="OCCLUDED")
 
-        out[idx] = np.concatenate(self._map_chunks(run, len(org))) >= 0
+        out[idx] = np.concatenate(self._map_chunks(run, len(o))) >= 0
         return out
 
     def commit(self) -> None:
