@@ -4,7 +4,7 @@
 Objects tagged as body or garments are layered (global normals from the stored
 ``deformrt_global_normal`` attribute, else each mesh's own normals); everything else is drawn
 as it is. Materials come from the Principled BSDF: base colour, metallic as mirror,
-transmission and IOR, roughness as Blinn-Phong shininess. Sun, point and area lights (area
+transmission and IOR, roughness as Blinn-Phong shininess. Sun, point, spot and area lights (area
 lights sampled on a grid for soft shadows). Light strengths are divided by pi on the way in, so
 the seed's Lambert term (albedo times N.L, no 1/pi) gives the radiance Cycles gives: a white
 surface facing a sun of strength 1 is 1/pi.
@@ -57,6 +57,10 @@ def _lights(depsgraph, area_samples=4):
         elif light.type == "POINT":
             # a point lamp of P watts sends P / (4 pi) per steradian
             out.append(Light("POINT", tuple(m[:3, 3]), tuple(colour / (4 * np.pi))))
+        elif light.type == "SPOT":
+            # as bright as a point lamp of its power inside its cone, which points down its local -z
+            out.append(Light("SPOT", tuple(m[:3, 3]), tuple(colour / (4 * np.pi)), axis=tuple(-m[:3, 2]),
+                             spot_size=float(light.spot_size), spot_blend=float(light.spot_blend)))
         elif light.type == "AREA":
             # P watts off a Lambertian patch: P / pi per steradian along its normal (local -z)
             sx = light.size

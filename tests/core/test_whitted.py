@@ -212,6 +212,36 @@ def test_point_light_falls_off_with_the_square_of_distance():
         np.testing.assert_allclose(img.colour, 4.0 * (height / np.sqrt(r2)) / r2, rtol=1e-9)
 
 
+@pytest.mark.parametrize("blend", [0.0, 0.4, 1.0])
+def test_spot_light_is_a_point_light_inside_its_cone_with_a_smoothstep_edge(blend):
+    """A spot 1 m over a white floor, pointing down, cone edge at 0.5 m from its foot: E = I cos / r^2
+    times Blender's edge mask smoothstep((cos a - cos(size/2)) / ((1 - cos(size/2)) blend)), a the
+    angle off the axis (here the same as the angle of incidence); a hard edge when blend is 0."""
+    v, f = sheet(size=4.0, n=9, z=0.0)
+    scene = LayeredScene([(v, f)], [None])
+    o, d = down_rays(n=41, z=1.0, spread=0.8)
+    size = 2 * np.arctan(0.5)
+    spot = Light("SPOT", (0, 0, 1.0), (4, 4, 4), axis=(0, 0, -2.0), spot_size=size, spot_blend=blend)
+    img = render(scene, [Material(colour=(1, 1, 1))], [spot], o, d)
+    r2 = 1.0 + (o[:, :2] ** 2).sum(1)
+    cos = 1.0 / np.sqrt(r2)
+    cos_half = np.cos(size / 2)
+    if blend == 0:
+        mask = (cos > cos_half).astype(float)
+    else:
+        x = np.clip((cos - cos_half) / ((1 - cos_half) * blend), 0, 1)
+        mask = x * x * (3 - 2 * x)
+    np.testing.assert_allclose(img.colour, (4.0 * cos / r2 * mask)[:, None].repeat(3, 1), rtol=1e-9, atol=1e-15)
+    lit = img.colour[:, 0]
+    assert (lit == 0).any() and (lit > 0).any()  # the cone's edge is inside the picture
+    if blend > 0:  # and its ramp
+        assert ((mask > 0.05) & (mask < 0.95)).any()
+    # a point light of the same intensity: the same inside the cone, away from its edge
+    inside = mask == 1
+    point = render(scene, [Material(colour=(1, 1, 1))], [Light("POINT", (0, 0, 1.0), (4, 4, 4))], o, d)
+    np.testing.assert_allclose(img.colour[inside], point.colour[inside], rtol=1e-12)
+
+
 def test_square_area_light_gives_the_view_factor_irradiance():
     """A Lambertian square of side 1 at 1 m over a white floor: E = pi L F, F from the
     parallel-rectangle view factor (Howell's catalogue B-3) summed over four corner quarters."""
@@ -314,7 +344,10 @@ def test_probe_distance_per_vertex_follows_the_body_under_each_garment():
 @pytest.mark.parametrize("bad, match", [
     (dict(materials=[]), "materials"),
     (dict(max_depth=-1), "max_depth"),
-    (dict(lights=[Light("SPOT", (0, 0, 1))]), "SUN, POINT or AREA"),
+    (dict(lights=[Light("SPOTLIGHT", (0, 0, 1))]), "SUN, POINT, SPOT or AREA"),
+    (dict(lights=[Light("SPOT", (0, 0, 1), spot_size=0.0)]), "spot_size"),
+    (dict(lights=[Light("SPOT", (0, 0, 1), spot_blend=1.5)]), "spot_blend"),
+    (dict(lights=[Light("SPOT", (0, 0, 1), axis=(0, 0, 0))]), "axis"),
 ])
 def test_bad_input_is_refused(bad, match):
     v, f = sheet(size=1.0, n=4)
