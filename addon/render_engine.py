@@ -34,7 +34,8 @@ def _material(obj):
     mat = obj.active_material
     bsdf = mat.node_tree.nodes.get("Principled BSDF") if mat is not None and mat.use_nodes else None
     if bsdf is None:
-        colour = tuple(mat.diffuse_color[:3]) if mat is not None else tuple(obj.color[:3])
+        # no material at all: Cycles' and Eevee's default surface, a diffuse grey of 0.8
+        colour = tuple(mat.diffuse_color[:3]) if mat is not None else (0.8, 0.8, 0.8)
         return Material(colour=colour)
     value = lambda name: bsdf.inputs[name].default_value  # noqa: E731
     rough = float(value("Roughness"))
@@ -71,20 +72,36 @@ def _lights(depsgraph, area_samples=4):
     return out
 
 
+def _meshes(depsgraph):
+    """(object, its MeshArrays in world space, whether it is an instance) of every mesh the
+    depsgraph shows: in a render, what renders (an object off for rendering is not there, one
+    only hidden in the viewport is), and the meshes collections and geometry nodes instance."""
+    for inst in depsgraph.object_instances:
+        if inst.object.type != "MESH":
+            continue
+        if not inst.is_instance:
+            obj = inst.object.original
+            yield obj, mesh_io.read_mesh(obj, depsgraph), False
+            continue
+        # the instanced object's mesh, placed by the instance (read now: the iterator moves on)
+        a = mesh_io.read_mesh(inst.object, depsgraph, world=False)
+        m = np.array(inst.matrix_world, dtype=np.float64)
+        yield inst.object, mesh_io.MeshArrays(a.vertices @ m[:3, :3].T + m[:3, 3], a.triangles, a.triangle_polygon,
+                                              a.n_polygons, m), True
+
+
 def scene_arrays(depsgraph, layered=True):
-    """(LayeredScene, materials, objects) of the visible meshes, in world space. Without
-    ``layered`` (plain ray tracing) the global normals, body parts and probe distances that
-    only layering uses are not read."""
+    """(LayeredScene, materials, objects) of the meshes the depsgraph shows, in world space.
+    Instances are drawn as they are, outside the layering. Without ``layered`` (plain ray
+    tracing) the global normals, body parts and probe distances that only layering uses are
+    not read."""
     objects, layers, normals, materials, sources = [], [], [], [], []
     settings = depsgraph.scene.deformrt
     parts = None
-    for obj in depsgraph.scene.objects:
-        if obj.type != "MESH" or not obj.visible_get():
-            continue
-        a = mesh_io.read_mesh(obj, depsgraph)
+    for obj, a, instance in _meshes(depsgraph):
         if not len(a.triangles):
             continue
-        role = obj.deformrt.role
+        role = "NONE" if instance else obj.deformrt.role
         objects.append((a.vertices, a.triangles))
         layers.append(None if role == "NONE" else (0 if role == "BODY" else obj.deformrt.layer))
         n = mesh_io.read_point_vectors(obj, GLOBAL_NORMAL_ATTRIBUTE, depsgraph) if layered and role != "NONE" else None

@@ -172,6 +172,38 @@ def test_area_light_lights_one_side_as_blender_sizes_it(studio, clean_scene, tmp
     np.testing.assert_array_equal(_render(studio, scene, tmp_path, size=(15, 15))[..., :3], 0.0)
 
 
+def test_what_renders_is_what_blender_renders(studio, clean_scene, tmp_path):
+    """An object switched off for rendering is not drawn, one only hidden in the viewport is, and
+    so is a collection instance (as Cycles does); a mesh with no material has Cycles' default
+    surface, a diffuse grey of 0.8: under a sun of strength 2 at normal incidence 2 x 0.8 / pi."""
+    scene = _engine(clean_scene)
+    _stage(scene, sun_strength=2.0)
+    places = {"off for rendering": (-1.0, 0.0), "hidden in the viewport": (1.0, 0.0), "instanced": (0.0, 1.2)}
+    made = {}
+    for name, (x, y) in places.items():
+        bpy.ops.mesh.primitive_plane_add(size=1.0, location=(x, y, 0.0))
+        made[name] = bpy.context.active_object
+    made["off for rendering"].hide_render = True
+    made["hidden in the viewport"].hide_set(True)
+    props = bpy.data.collections.new("Props")  # not in the scene: seen only through its instance
+    props.objects.link(made["instanced"])
+    scene.collection.objects.unlink(made["instanced"])
+    made["instanced"].location = (0.0, 0.0, 0.0)
+    holder = bpy.data.objects.new("Holder", None)
+    holder.instance_type, holder.instance_collection, holder.location = "COLLECTION", props, (0.0, 1.2, 0.0)
+    scene.collection.objects.link(holder)
+    size = 41
+    px = _render(studio, scene, tmp_path, size=(size, size))[..., 0]
+    half = 5.0 * 18 / 50  # half the floor seen from 5 m: the default 50 mm lens on a 36 mm sensor
+
+    def at(x, y):
+        return px[int((1 - (y / half + 1) / 2) * size), int((x / half + 1) / 2 * size)]
+
+    grey = 2.0 * 0.8 / np.pi
+    assert at(*places["off for rendering"]) == 0.0
+    np.testing.assert_allclose([at(*places["hidden in the viewport"]), at(*places["instanced"])], grey, rtol=1e-6)
+
+
 def test_spot_light_lights_its_cone_as_blender_shapes_it(extension, studio, clean_scene, tmp_path):
     """A 30 W spot 1 m over a white floor, pointing down, cone edge 0.5 m from its foot, blend
     0.4: inside, a point lamp's P / (4 pi) per steradian; at the edge Cycles' smoothstep mask.
