@@ -13,14 +13,16 @@ class MeshArrays:
     triangle_polygon: np.ndarray  # (m,) polygon each triangle came from
     n_polygons: int = 0
     matrix_world: np.ndarray | None = None  # (4, 4) of the evaluated object
+    triangle_material: np.ndarray | None = None  # (m,) material slot of each triangle, when asked for
 
 
 def _matrix(obj) -> np.ndarray:
     return np.array(obj.matrix_world, dtype=np.float64)
 
 
-def read_mesh(obj, depsgraph=None, world=True) -> MeshArrays:
-    """Evaluated geometry (modifiers, armature, cloth applied) of a mesh object."""
+def read_mesh(obj, depsgraph=None, world=True, materials=False) -> MeshArrays:
+    """Evaluated geometry (modifiers, armature, cloth applied) of a mesh object; with
+    ``materials``, also each triangle's material slot."""
     if depsgraph is None:
         depsgraph = bpy.context.evaluated_depsgraph_get()
     evaluated = obj.evaluated_get(depsgraph)
@@ -36,13 +38,18 @@ def read_mesh(obj, depsgraph=None, world=True) -> MeshArrays:
         poly = np.empty(m, dtype=np.int32)
         mesh.loop_triangles.foreach_get("polygon_index", poly)
         n_polygons = len(mesh.polygons)
+        slot = None
+        if materials:
+            slot = np.empty(m, dtype=np.int32)
+            mesh.loop_triangles.foreach_get("material_index", slot)
     finally:
         evaluated.to_mesh_clear()
     v = co.reshape(-1, 3).astype(np.float64)
     mw = np.array(evaluated.matrix_world, dtype=np.float64)
     if world:
         v = v @ mw[:3, :3].T + mw[:3, 3]
-    return MeshArrays(v, tris.reshape(-1, 3).astype(np.int64), poly.astype(np.int64), n_polygons, mw)
+    return MeshArrays(v, tris.reshape(-1, 3).astype(np.int64), poly.astype(np.int64), n_polygons, mw,
+                      None if slot is None else slot.astype(np.int64))
 
 
 def fill_mesh(mesh, vertices, faces) -> None:

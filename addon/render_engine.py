@@ -30,8 +30,14 @@ FIXED_PASS = "DeformRT Fixed"  # 1 where a probe ray changed what the pixel show
 BACKGROUND_DEPTH = 1e10  # what Cycles writes where no surface is
 
 
-def _material(obj):
-    mat = obj.active_material
+def _materials(obj, depsgraph):
+    """The Materials of the object's slots as it is evaluated (geometry nodes may set some), in
+    slot order; none: one default."""
+    slots = obj.evaluated_get(depsgraph).material_slots
+    return [_material(slot.material) for slot in slots] or [_material(None)]
+
+
+def _material(mat):
     bsdf = mat.node_tree.nodes.get("Principled BSDF") if mat is not None and mat.use_nodes else None
     if bsdf is None:
         # no material at all: Cycles' and Eevee's default surface, a diffuse grey of 0.8
@@ -81,21 +87,21 @@ def _meshes(depsgraph):
             continue
         if not inst.is_instance:
             obj = inst.object.original
-            yield obj, mesh_io.read_mesh(obj, depsgraph), False
+            yield obj, mesh_io.read_mesh(obj, depsgraph, materials=True), False
             continue
         # the instanced object's mesh, placed by the instance (read now: the iterator moves on)
-        a = mesh_io.read_mesh(inst.object, depsgraph, world=False)
+        a = mesh_io.read_mesh(inst.object, depsgraph, world=False, materials=True)
         m = np.array(inst.matrix_world, dtype=np.float64)
         yield inst.object, mesh_io.MeshArrays(a.vertices @ m[:3, :3].T + m[:3, 3], a.triangles, a.triangle_polygon,
-                                              a.n_polygons, m), True
+                                              a.n_polygons, m, a.triangle_material), True
 
 
 def scene_arrays(depsgraph, layered=True):
-    """(LayeredScene, materials, objects) of the meshes the depsgraph shows, in world space.
-    Instances are drawn as they are, outside the layering. Without ``layered`` (plain ray
-    tracing) the global normals, body parts and probe distances that only layering uses are
-    not read."""
-    objects, layers, normals, materials, sources = [], [], [], [], []
+    """(LayeredScene, materials, face slots, objects) of the meshes the depsgraph shows, in world
+    space: per object the Materials of its slots and each triangle's slot. Instances are drawn
+    as they are, outside the layering. Without ``layered`` (plain ray tracing) the global
+    normals, body parts and probe distances that only layering uses are not read."""
+    objects, layers, normals, materials, slots, sources = [], [], [], [], [], []
     settings = depsgraph.scene.deformrt
     parts = None
     for obj, a, instance in _meshes(depsgraph):
@@ -107,7 +113,8 @@ def scene_arrays(depsgraph, layered=True):
         n = mesh_io.read_point_vectors(obj, GLOBAL_NORMAL_ATTRIBUTE, depsgraph) if layered and role != "NONE" else None
         # stored in object space; normals turn with the inverse transpose
         normals.append(None if n is None or len(n) != len(a.vertices) else n @ np.linalg.inv(a.matrix_world[:3, :3]))
-        materials.append(_material(obj))
+        materials.append(_materials(obj, depsgraph))
+        slots.append(a.triangle_material if len(materials[-1]) > 1 else None)
         sources.append(obj)
         if layered and role == "BODY":
             # no vertex groups: reading them adds a modifier, and a render must not write to the scene
@@ -120,7 +127,8 @@ def scene_arrays(depsgraph, layered=True):
         top = max((lay for lay in layers if lay is not None), default=0)
         probe = body_probes(objects, layers, probe_distances(settings, parts is not None), parts, scheme,
                             traced=[lay is not None and lay < top for lay in layers])
-    return LayeredScene(objects, layers, normals, probe_distance=probe, offset=settings.offset), materials, sources
+    return (LayeredScene(objects, layers, normals, probe_distance=probe, offset=settings.offset), materials, slots,
+            sources)
 
 
 def body_probes(objects, layers, given=None, parts=None, scheme=None, traced=None):
@@ -204,7 +212,7 @@ class FrameTracer:
         scene = depsgraph.scene
         settings = scene.deformrt
         t0 = time.perf_counter()
-        self.scene, self.materials, self.objects = scene_arrays(depsgraph, settings.render_layered)
+        self.scene, self.materials, self.slots, self.objects = scene_arrays(depsgraph, settings.render_layered)
         self.seconds = {"read_build_s": time.perf_counter() - t0, "trace_s": 0.0}
         m = np.array(scene.camera.matrix_world)
         self.width, self.height = width, height
@@ -221,7 +229,7 @@ class FrameTracer:
         sl = slice(start * self.width, stop * self.width)
         img = render(self.scene, self.materials, self.lights, self.origins[sl], self.directions[sl],
                      background=self.sky, ambient=np.asarray(self.sky), max_depth=self.max_depth,
-                     layered=self.layered)
+                     layered=self.layered, face_slots=self.slots)
         self.seconds["trace_s"] += time.perf_counter() - t0
         return img, img.depth * self._to_depth[sl]
 

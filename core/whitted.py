@@ -78,11 +78,13 @@ def camera_rays(matrix_world, fov_y, width, height):
 
 
 def render(scene: LayeredScene, materials, lights, origins, directions, background=(0.0, 0.0, 0.0),
-           ambient=0.0, max_depth=4, cutoff=0.01, layered=True) -> Image:
-    """Colour per ray. ``materials`` one per object; ``background`` a colour or a function of
-    ray directions (n, 3) -> (n, 3)."""
+           ambient=0.0, max_depth=4, cutoff=0.01, layered=True, face_slots=None) -> Image:
+    """Colour per ray. ``materials`` one per object: a Material, or a list of them that
+    ``face_slots`` (per object None or one slot per face; past the last slot, the last) picks
+    from face by face; ``background`` a colour or a function of ray directions (n, 3) -> (n, 3)."""
     if len(materials) != len(scene.layers):
         raise ValueError(f"{len(materials)} materials for {len(scene.layers)} objects")
+    mats, face_material = _material_table(scene, materials, face_slots)
     if max_depth < 0:
         raise ValueError(f"max_depth must be >= 0, got {max_depth}")
     sky = background if callable(background) else (lambda d: np.broadcast_to(np.asarray(background, float), d.shape))
@@ -94,7 +96,6 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
     depth_of = np.zeros(n, int)
     sigma = np.zeros((n, 3))  # absorption of the medium each ray travels in
     first, stats = None, {"rays": 0, "shadow_rays": 0, "deepest": 0, "cut_by_importance": 0}
-    mats = list(materials)
     albedo = np.array([m.colour for m in mats], float)
     absorb = np.array([m.absorption for m in mats], float)
     props = {k: np.array([getattr(m, k) for m in mats], float)
@@ -121,11 +122,12 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
         nrm = _shading_normal(scene, obj, face, bary)
         entering = np.einsum("ij,ij->i", nrm, d) < 0
         nrm = np.where(entering[:, None], nrm, -nrm)  # faces the incoming ray
-        trans, mirror, ior = props["transmission"][obj], props["mirror"][obj], props["ior"][obj]
+        mat = face_material[scene.first_face[obj] + face]
+        trans, mirror, ior = props["transmission"][mat], props["mirror"][mat], props["ior"][mat]
         local = (1 - trans) * (1 - mirror)
         start = _shadow_origin(scene, obj, face, bary, p, np.where(entering, 1.0, -1.0)) + nrm * scene.eps
-        colour_local = _direct(scene, lights, p, start, nrm, d, albedo[obj], props["specular"][obj],
-                               props["shininess"][obj], ambient, stats, layered, obj)
+        colour_local = _direct(scene, lights, p, start, nrm, d, albedo[mat], props["specular"][mat],
+                               props["shininess"][mat], ambient, stats, layered, obj)
         _add(colour, pixel, weight * local[:, None] * colour_local, once)
         # Fresnel for the transmissive share (eq. 2.12-2.13); total internal reflection reflects all
         eta = np.where(entering, 1.0 / ior, ior)
@@ -152,7 +154,7 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
             if not go.any():
                 continue
             if inside is None:  # refracted rays enter (take the object's absorption) or leave (none)
-                inside = np.where(entering[:, None], absorb[obj], 0.0)
+                inside = np.where(entering[:, None], absorb[mat], 0.0)
             batches.append((p[go], direction[go], pixel[go], w[go], next_depth[go], inside[go]))
         if not batches:
             break
@@ -161,6 +163,29 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
         leaving = np.full(len(o), scene.eps)
         once = False  # a pixel's reflected and refracted rays travel together
     return Image(colour, first.t, first.obj, first.fixed, stats)
+
+
+def _material_table(scene, materials, face_slots):
+    """(every material once per object slot, the row of it each face of the combined scene takes)."""
+    if face_slots is not None and len(face_slots) != len(materials):
+        raise ValueError(f"face_slots needs one entry per object ({len(materials)}), got {len(face_slots)}")
+    table, rows = [], []
+    for i, m in enumerate(materials):
+        group = [m] if isinstance(m, Material) else list(m)
+        if not group or not all(isinstance(x, Material) for x in group):
+            raise ValueError(f"materials[{i}] must be a Material or a non-empty list of them")
+        count = int(scene.first_face[i + 1] - scene.first_face[i])
+        slots = None if face_slots is None else face_slots[i]
+        if slots is None:
+            slot = np.zeros(count, np.int64)
+        else:
+            slot = np.asarray(slots, np.int64)
+            if slot.shape != (count,):
+                raise ValueError(f"face_slots[{i}] must be one slot per face ({count}), got shape {slot.shape}")
+            slot = np.clip(slot, 0, len(group) - 1)
+        rows.append(len(table) + slot)
+        table += group
+    return table, (np.concatenate(rows) if rows else np.zeros(0, np.int64))
 
 
 def _add(colour, pixel, value, once):

@@ -172,6 +172,36 @@ def test_area_light_lights_one_side_as_blender_sizes_it(studio, clean_scene, tmp
     np.testing.assert_array_equal(_render(studio, scene, tmp_path, size=(15, 15))[..., :3], 0.0)
 
 
+def test_each_face_takes_the_material_of_its_slot(studio, clean_scene, tmp_path):
+    """Two quads of one mesh in two material slots, red and green, under a sun of strength 2
+    straight above: each shows its own slot's Lambert colour 2 albedo / pi (not the active
+    slot's on both); a slot index past the last slot takes the last, as Blender clamps it."""
+    scene = _engine(clean_scene)
+    _stage(scene, sun_strength=2.0)
+    mesh = bpy.data.meshes.new("Two")
+    mesh.from_pydata([(-1, -0.5, 0), (0, -0.5, 0), (1, -0.5, 0), (-1, 0.5, 0), (0, 0.5, 0), (1, 0.5, 0)], [],
+                     [(0, 1, 4, 3), (1, 2, 5, 4)])
+    obj = bpy.data.objects.new("Two", mesh)
+    scene.collection.objects.link(obj)
+    for colour in ((0.9, 0.1, 0.1), (0.1, 0.8, 0.2)):
+        _material(obj, colour)
+    obj.active_material_index = 0
+    size = 41
+    half = 5.0 * 18 / 50
+
+    def shown(index):
+        mesh.polygons.foreach_set("material_index", np.array(index, np.int32))
+        mesh.update()
+        px = _render(studio, scene, tmp_path, size=(size, size))[size // 2, :, :3]
+        return px[int((-0.5 / half + 1) / 2 * size)], px[int((0.5 / half + 1) / 2 * size)]
+
+    left, right = shown([0, 1])
+    np.testing.assert_allclose(left, 2 * np.array([0.9, 0.1, 0.1]) / np.pi, rtol=1e-6)
+    np.testing.assert_allclose(right, 2 * np.array([0.1, 0.8, 0.2]) / np.pi, rtol=1e-6)
+    left, right = shown([1, 7])
+    np.testing.assert_allclose([left, right], [2 * np.array([0.1, 0.8, 0.2]) / np.pi] * 2, rtol=1e-6)
+
+
 def test_what_renders_is_what_blender_renders(studio, clean_scene, tmp_path):
     """An object switched off for rendering is not drawn, one only hidden in the viewport is, and
     so is a collection instance (as Cycles does); a mesh with no material has Cycles' default
