@@ -360,3 +360,25 @@ def test_bad_input_is_refused(bad, match):
         camera_rays(np.eye(4), 0.0, 4, 4)
     with pytest.raises(ValueError, match="layers"):
         LayeredScene([(v, f)], [None, 1])
+
+
+def test_faces_take_their_slots_material_and_bad_slots_are_refused():
+    """One sheet, its faces in two slots by x: each pixel shows its face's slot's Lambert colour."""
+    v, f = sheet(size=1.0, n=6)
+    scene = LayeredScene([(v, f)], [None])
+    o, d = down_rays(n=9, spread=0.4)
+    slot = (v[f].mean(1)[:, 0] > 0).astype(int)
+    red, green = Material(colour=(0.9, 0.1, 0.1)), Material(colour=(0.1, 0.8, 0.2))
+    sun = [Light("SUN", (0, 0, -1), (1, 1, 1))]
+    img = render(scene, [[red, green]], sun, o, d, face_slots=[slot])
+    on = slot[scene.first_visible(o, d).face]  # the slot of the face each ray meets
+    np.testing.assert_allclose(img.colour, np.where((on == 1)[:, None], green.colour, red.colour), rtol=1e-12)
+    assert 0 < on.mean() < 1
+    # without slots the first material everywhere, as a lone Material
+    lone = render(scene, [red], sun, o, d).colour
+    np.testing.assert_array_equal(render(scene, [[red, green]], sun, o, d).colour, lone)
+    for bad, match in (([slot[:-1]], "one slot per face"), ([slot, slot], "one entry per object")):
+        with pytest.raises(ValueError, match=match):
+            render(scene, [[red, green]], sun, o, d, face_slots=bad)
+    with pytest.raises(ValueError, match="non-empty list"):
+        render(scene, [[]], sun, o, d)
