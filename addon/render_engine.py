@@ -3,9 +3,10 @@
 
 Objects tagged as body or garments are layered (global normals from the stored
 ``deformrt_global_normal`` attribute, else each mesh's own normals); everything else is drawn
-as it is. Materials come from the Principled BSDF: base colour, metallic as mirror,
-transmission and IOR, roughness as Blinn-Phong shininess. Sun, point, spot and area lights (area
-lights sampled on a grid for soft shadows). Light strengths are divided by pi on the way in, so
+as it is. Materials come from the Principled BSDF, slot by slot: base colour, metallic as
+mirror, transmission and IOR, roughness as Blinn-Phong shininess, emission (it shows, it lights
+nothing else). Sun, point, spot and area lights (area lights sampled on a grid for soft
+shadows; a light's Shadow switch is followed). Light strengths are divided by pi on the way in, so
 the seed's Lambert term (albedo times N.L, no 1/pi) gives the radiance Cycles gives: a white
 surface facing a sun of strength 1 is 1/pi.
 
@@ -47,7 +48,8 @@ def _material(mat):
     rough = float(value("Roughness"))
     return Material(colour=tuple(value("Base Color")[:3]), specular=0.5 * float(value("Specular IOR Level")),
                     shininess=2.0 / max(rough**4, 1e-4), mirror=float(value("Metallic")),
-                    transmission=float(value("Transmission Weight")), ior=float(value("IOR")))
+                    transmission=float(value("Transmission Weight")), ior=float(value("IOR")),
+                    emission=tuple(float(value("Emission Strength")) * np.array(value("Emission Color")[:3])))
 
 
 def _lights(depsgraph, area_samples=4):
@@ -60,21 +62,22 @@ def _lights(depsgraph, area_samples=4):
         light = obj.data
         colour = np.array(light.color) * light.energy / np.pi  # a Lambert surface sends E albedo / pi
         if light.type == "SUN":
-            out.append(Light("SUN", tuple(-m[:3, 2]), tuple(colour)))
+            out.append(Light("SUN", tuple(-m[:3, 2]), tuple(colour), shadow=light.use_shadow))
         elif light.type == "POINT":
             # a point lamp of P watts sends P / (4 pi) per steradian
-            out.append(Light("POINT", tuple(m[:3, 3]), tuple(colour / (4 * np.pi))))
+            out.append(Light("POINT", tuple(m[:3, 3]), tuple(colour / (4 * np.pi)), shadow=light.use_shadow))
         elif light.type == "SPOT":
             # as bright as a point lamp of its power inside its cone, which points down its local -z
             out.append(Light("SPOT", tuple(m[:3, 3]), tuple(colour / (4 * np.pi)), axis=tuple(-m[:3, 2]),
-                             spot_size=float(light.spot_size), spot_blend=float(light.spot_blend)))
+                             spot_size=float(light.spot_size), spot_blend=float(light.spot_blend),
+                             shadow=light.use_shadow))
         elif light.type == "AREA":
             # P watts off a Lambertian patch: P / pi per steradian along its normal (local -z)
             sx = light.size
             sy = light.size if light.shape in ("SQUARE", "DISK") else light.size_y
             u, v = m[:3, 0] * sx / 2, -m[:3, 1] * sy / 2  # u x v = -z: the side it lights
             out.append(Light("AREA", tuple(m[:3, 3]), tuple(colour / np.pi), edges=(tuple(u), tuple(v)),
-                             disk=light.shape in ("DISK", "ELLIPSE"), samples=area_samples))
+                             disk=light.shape in ("DISK", "ELLIPSE"), samples=area_samples, shadow=light.use_shadow))
     return out
 
 

@@ -26,6 +26,7 @@ class Material:
     transmission: float = 0.0  # share refracted
     ior: float = 1.5
     absorption: tuple = (0.0, 0.0, 0.0)  # Beer-Lambert coefficient per unit length, inside
+    emission: tuple = (0.0, 0.0, 0.0)  # radiance the surface sends itself, on top of what it reflects
 
 
 @dataclass(frozen=True)
@@ -48,6 +49,7 @@ class Light:
     axis: tuple = (0.0, 0.0, -1.0)
     spot_size: float = np.pi / 4
     spot_blend: float = 0.15
+    shadow: bool = True  # False: lights what faces it, through anything
 
 
 @dataclass
@@ -98,6 +100,8 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
     first, stats = None, {"rays": 0, "shadow_rays": 0, "deepest": 0, "cut_by_importance": 0}
     albedo = np.array([m.colour for m in mats], float)
     absorb = np.array([m.absorption for m in mats], float)
+    emission = np.array([m.emission for m in mats], float)
+    glows = bool(emission.any())
     props = {k: np.array([getattr(m, k) for m in mats], float)
              for k in ("transmission", "mirror", "ior", "specular", "shininess")}
     leaving = np.zeros(n)  # secondary rays start on their surface and skip it
@@ -128,7 +132,10 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
         start = _shadow_origin(scene, obj, face, bary, p, np.where(entering, 1.0, -1.0)) + nrm * scene.eps
         colour_local = _direct(scene, lights, p, start, nrm, d, albedo[mat], props["specular"][mat],
                                props["shininess"][mat], ambient, stats, layered, obj)
-        _add(colour, pixel, weight * local[:, None] * colour_local, once)
+        seen = weight * local[:, None] * colour_local
+        if glows:  # emission on top, whatever share of the light the surface reflects or lets through
+            seen += weight * emission[mat]
+        _add(colour, pixel, seen, once)
         # Fresnel for the transmissive share (eq. 2.12-2.13); total internal reflection reflects all
         eta = np.where(entering, 1.0 / ior, ior)
         cos_i = -np.einsum("ij,ij->i", nrm, d)
@@ -231,7 +238,7 @@ def _direct(scene, lights, p, start, nrm, d, albedo, spec, shine, ambient, stats
     tracing a covered lower layer casts no shadow: a surface that is not shown must not darken
     the one shown over it. Shadow rays leave from ``start``."""
     out = ambient * albedo
-    for kind, vec, colour, reach in _emitters(lights):
+    for kind, vec, colour, reach, casts in _emitters(lights):
         if kind == "SUN":
             to_l = np.broadcast_to(-vec / np.linalg.norm(vec), p.shape)
             dist = np.full(len(p), np.inf)
@@ -249,9 +256,11 @@ def _direct(scene, lights, p, start, nrm, d, albedo, spec, shine, ambient, stats
         if not lit.any():
             continue
         idx = np.flatnonzero(lit)
-        shadow = scene.blocked(start[idx], to_l[idx], dist[idx] - 2 * scene.eps, layered=layered, leaving=obj[idx])
-        stats["shadow_rays"] += len(idx)
-        idx = idx[~shadow]
+        if casts:
+            shadow = scene.blocked(start[idx], to_l[idx], dist[idx] - 2 * scene.eps, layered=layered,
+                                   leaving=obj[idx])
+            stats["shadow_rays"] += len(idx)
+            idx = idx[~shadow]
         cos = np.einsum("ij,ij->i", nrm[idx], to_l[idx])
         shade = albedo[idx] * cos[:, None]
         if spec[idx].any():  # no highlight to add on purely diffuse surfaces
@@ -264,14 +273,15 @@ def _direct(scene, lights, p, start, nrm, d, albedo, spec, shine, ambient, stats
 
 
 def _emitters(lights):
-    """(kind, vector, colour, reach) per sun, point, spot, or sample of an area light; ``reach``:
-    None, or the share of the intensity sent along each (n, 3) unit direction from the light."""
+    """(kind, vector, colour, reach, casts shadows) per sun, point, spot, or sample of an area
+    light; ``reach``: None, or the share of the intensity sent along each (n, 3) unit direction
+    from the light."""
     for light in lights:
-        vec, colour = np.asarray(light.vector, float), np.asarray(light.colour, float)
+        vec, colour, casts = np.asarray(light.vector, float), np.asarray(light.colour, float), bool(light.shadow)
         if light.kind in ("SUN", "POINT"):
-            yield light.kind, vec, colour, None
+            yield light.kind, vec, colour, None, casts
         elif light.kind == "SPOT":
-            yield "POINT", vec, colour, _spot_cone(light)
+            yield "POINT", vec, colour, _spot_cone(light), casts
         elif light.kind == "AREA":
             u, v = (np.asarray(e, float) for e in light.edges)
             facing = np.cross(u, v)
@@ -288,7 +298,7 @@ def _emitters(lights):
                 return np.maximum(0.0, out @ facing)
 
             for x, y in zip(a, b, strict=True):
-                yield "POINT", vec + x * u + y * v, colour / len(a), lambert
+                yield "POINT", vec + x * u + y * v, colour / len(a), lambert, casts
         else:
             raise ValueError(f"light kind must be SUN, POINT, SPOT or AREA, got {light.kind!r}")
 

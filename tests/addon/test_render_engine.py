@@ -337,3 +337,35 @@ def test_a_skirt_probes_as_far_as_the_resolve_takes_it_and_its_override_counts(e
     probes = engine.body_probes(objects, [0, 1, 2], given=given, parts=parts, scheme="S5")
     np.testing.assert_array_equal(probes[1][on_legs], 0.03)
     np.testing.assert_allclose(probes[2][trouser.vertices[:, 2] < 0.45], 0.07, rtol=0.05)
+
+
+def test_emission_shows_and_a_light_without_shadows_lights_through(studio, clean_scene, tmp_path):
+    """An emissive quad (Emission Color x Strength: radiance, as Cycles shows it with no light)
+    over a white floor, under a sun of strength 2 at 45 degrees: the quad shows its emission plus
+    its own lit Lambert colour; the floor is dark in its shadow until the sun's Shadow switch is
+    off, then lit as the open floor."""
+    scene = _engine(clean_scene)
+    _stage(scene, sun_strength=2.0)
+    bpy.ops.mesh.primitive_plane_add(size=20.0)
+    _material(bpy.context.active_object, (1.0, 1.0, 1.0))
+    bpy.ops.mesh.primitive_plane_add(size=0.4, location=(-1.0, 0.0, 0.5))
+    lamp = bpy.context.active_object
+    _material(lamp, (0.2, 0.2, 0.2))
+    bsdf = lamp.active_material.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Emission Color"].default_value = (1.0, 0.5, 0.25, 1.0)
+    bsdf.inputs["Emission Strength"].default_value = 3.0
+    scene.objects["Sun"].rotation_euler = (0.0, np.radians(-45), 0.0)  # travels to +x and down
+    size, half = 81, 5.0 * 18 / 50
+
+    def at(px, x, y, z=0.0):  # the pixel that sees (x, y, z) from the camera 5 m up
+        s = 5.0 / (5.0 - z)
+        return px[int((1 - (s * y / half + 1) / 2) * size), int((s * x / half + 1) / 2 * size), :3]
+
+    lit = 2 * np.cos(np.radians(45)) / np.pi
+    px = _render(studio, scene, tmp_path, size=(size, size))
+    np.testing.assert_allclose(at(px, -1.0, 0.0, 0.5), 3.0 * np.array([1.0, 0.5, 0.25]) + 0.2 * lit, rtol=1e-5)
+    np.testing.assert_allclose(at(px, -0.5, 0.0), 0.0, atol=1e-7)  # the shadow of the quad's centre
+    np.testing.assert_allclose(at(px, 1.0, 0.0), lit, rtol=1e-5)
+    scene.objects["Sun"].data.use_shadow = False
+    px = _render(studio, scene, tmp_path, size=(size, size))
+    np.testing.assert_allclose(at(px, -0.5, 0.0), lit, rtol=1e-5)
