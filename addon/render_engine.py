@@ -60,7 +60,11 @@ def _lights(depsgraph, area_samples=4):
             continue
         m = np.array(inst.matrix_world)
         light = obj.data
-        colour = np.array(light.color) * light.energy / np.pi  # a Lambert surface sends E albedo / pi
+        # a Lambert surface sends E albedo / pi; power as Blender takes it: colour (times the
+        # blackbody colour of its temperature when that is on) x strength x 2^exposure
+        colour = np.array(light.color) * light.energy * 2.0 ** light.exposure / np.pi
+        if light.use_temperature:
+            colour = colour * np.array(light.temperature_color)
         if light.type == "SUN":
             out.append(Light("SUN", tuple(-m[:3, 2]), tuple(colour), shadow=light.use_shadow))
         elif light.type == "POINT":
@@ -76,8 +80,11 @@ def _lights(depsgraph, area_samples=4):
             sx = light.size
             sy = light.size if light.shape in ("SQUARE", "DISK") else light.size_y
             u, v = m[:3, 0] * sx / 2, -m[:3, 1] * sy / 2  # u x v = -z: the side it lights
+            disk = light.shape in ("DISK", "ELLIPSE")
+            if not light.normalize:  # its strength is per square metre: the power grows with its area
+                colour = colour * float(np.linalg.norm(np.cross(u, v))) * (np.pi if disk else 4.0)
             out.append(Light("AREA", tuple(m[:3, 3]), tuple(colour / np.pi), edges=(tuple(u), tuple(v)),
-                             disk=light.shape in ("DISK", "ELLIPSE"), samples=area_samples, shadow=light.use_shadow))
+                             disk=disk, samples=area_samples, shadow=light.use_shadow))
     return out
 
 
