@@ -33,17 +33,21 @@ BACKGROUND_DEPTH = 1e10  # what Cycles writes where no surface is
 
 def _materials(obj, depsgraph):
     """The Materials of the object's slots as it is evaluated (geometry nodes may set some), in
-    slot order; none: one default."""
-    slots = obj.evaluated_get(depsgraph).material_slots
-    return [_material(slot.material) for slot in slots] or [_material(None)]
+    slot order. A slot without a material, or an object without slots, takes the object's
+    colour where one was set (Object > Viewport Display), else Cycles' default grey of 0.8."""
+    ev = obj.evaluated_get(depsgraph)
+    own = tuple(ev.color[:3])
+    fallback = Material(colour=own if own != (1.0, 1.0, 1.0) else (0.8, 0.8, 0.8))
+    return [_material(slot.material) or fallback for slot in ev.material_slots] or [fallback]
 
 
 def _material(mat):
-    bsdf = mat.node_tree.nodes.get("Principled BSDF") if mat is not None and mat.use_nodes else None
+    """The Material of a Blender material; None for no material."""
+    if mat is None:
+        return None
+    bsdf = mat.node_tree.nodes.get("Principled BSDF") if mat.use_nodes else None
     if bsdf is None:
-        # no material at all: Cycles' and Eevee's default surface, a diffuse grey of 0.8
-        colour = tuple(mat.diffuse_color[:3]) if mat is not None else (0.8, 0.8, 0.8)
-        return Material(colour=colour)
+        return Material(colour=tuple(mat.diffuse_color[:3]))
     value = lambda name: bsdf.inputs[name].default_value  # noqa: E731
     rough = float(value("Roughness"))
     return Material(colour=tuple(value("Base Color")[:3]), specular=0.5 * float(value("Specular IOR Level")),

@@ -205,7 +205,8 @@ def test_each_face_takes_the_material_of_its_slot(studio, clean_scene, tmp_path)
 def test_what_renders_is_what_blender_renders(studio, clean_scene, tmp_path):
     """An object switched off for rendering is not drawn, one only hidden in the viewport is, and
     so is a collection instance (as Cycles does); a mesh with no material has Cycles' default
-    surface, a diffuse grey of 0.8: under a sun of strength 2 at normal incidence 2 x 0.8 / pi."""
+    surface, a diffuse grey of 0.8 (under a sun of strength 2 at normal incidence 2 x 0.8 / pi),
+    unless its object colour was set."""
     scene = _engine(clean_scene)
     _stage(scene, sun_strength=2.0)
     places = {"off for rendering": (-1.0, 0.0), "hidden in the viewport": (1.0, 0.0), "instanced": (0.0, 1.2)}
@@ -232,6 +233,10 @@ def test_what_renders_is_what_blender_renders(studio, clean_scene, tmp_path):
     grey = 2.0 * 0.8 / np.pi
     assert at(*places["off for rendering"]) == 0.0
     np.testing.assert_allclose([at(*places["hidden in the viewport"]), at(*places["instanced"])], grey, rtol=1e-6)
+    made["hidden in the viewport"].color = (0.2, 0.4, 0.6, 1.0)
+    px = _render(studio, scene, tmp_path, size=(size, size))
+    np.testing.assert_allclose(px[int((1 - (0 / half + 1) / 2) * size), int((1.0 / half + 1) / 2 * size)],
+                               [*(2.0 * np.array([0.2, 0.4, 0.6]) / np.pi), 1.0], rtol=1e-6)
 
 
 def test_spot_light_lights_its_cone_as_blender_shapes_it(extension, studio, clean_scene, tmp_path):
