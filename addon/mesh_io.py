@@ -14,6 +14,7 @@ class MeshArrays:
     n_polygons: int = 0
     matrix_world: np.ndarray | None = None  # (4, 4) of the evaluated object
     triangle_material: np.ndarray | None = None  # (m,) material slot of each triangle, when asked for
+    triangle_uv: np.ndarray | None = None  # (m, 3, 2) corner UVs of the render UV map, when asked for
 
 
 def _matrix(obj) -> np.ndarray:
@@ -22,7 +23,8 @@ def _matrix(obj) -> np.ndarray:
 
 def read_mesh(obj, depsgraph=None, world=True, materials=False) -> MeshArrays:
     """Evaluated geometry (modifiers, armature, cloth applied) of a mesh object; with
-    ``materials``, also each triangle's material slot."""
+    ``materials``, also each triangle's material slot and its corners' UVs on the UV map that
+    renders (None without one)."""
     if depsgraph is None:
         depsgraph = bpy.context.evaluated_depsgraph_get()
     evaluated = obj.evaluated_get(depsgraph)
@@ -38,10 +40,17 @@ def read_mesh(obj, depsgraph=None, world=True, materials=False) -> MeshArrays:
         poly = np.empty(m, dtype=np.int32)
         mesh.loop_triangles.foreach_get("polygon_index", poly)
         n_polygons = len(mesh.polygons)
-        slot = None
+        slot = uv = None
         if materials:
             slot = np.empty(m, dtype=np.int32)
             mesh.loop_triangles.foreach_get("material_index", slot)
+            layer = next((u for u in mesh.uv_layers if u.active_render), mesh.uv_layers.active)
+            if layer is not None and m:
+                loops = np.empty(m * 3, dtype=np.int32)
+                mesh.loop_triangles.foreach_get("loops", loops)
+                per_loop = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+                layer.data.foreach_get("uv", per_loop)
+                uv = per_loop.reshape(-1, 2)[loops].reshape(m, 3, 2).astype(np.float64)
     finally:
         evaluated.to_mesh_clear()
     v = co.reshape(-1, 3).astype(np.float64)
@@ -49,7 +58,7 @@ def read_mesh(obj, depsgraph=None, world=True, materials=False) -> MeshArrays:
     if world:
         v = v @ mw[:3, :3].T + mw[:3, 3]
     return MeshArrays(v, tris.reshape(-1, 3).astype(np.int64), poly.astype(np.int64), n_polygons, mw,
-                      None if slot is None else slot.astype(np.int64))
+                      None if slot is None else slot.astype(np.int64), uv)
 
 
 def fill_mesh(mesh, vertices, faces) -> None:

@@ -50,10 +50,38 @@ def _material(mat):
         return Material(colour=tuple(mat.diffuse_color[:3]))
     value = lambda name: bsdf.inputs[name].default_value  # noqa: E731
     rough = float(value("Roughness"))
-    return Material(colour=tuple(value("Base Color")[:3]), specular=0.5 * float(value("Specular IOR Level")),
+    return Material(colour=tuple(value("Base Color")[:3]), texture=_base_texture(bsdf),
+                    specular=0.5 * float(value("Specular IOR Level")),
                     shininess=2.0 / max(rough**4, 1e-4), mirror=float(value("Metallic")),
                     transmission=float(value("Transmission Weight")), ior=float(value("IOR")),
                     emission=tuple(float(value("Emission Strength")) * np.array(value("Emission Color")[:3])))
+
+
+def _base_texture(bsdf):
+    """The (h, w, 3) linear RGB of an Image Texture node whose colour feeds the Base Color straight,
+    read at the UV map that renders (its Vector unlinked, or from a UV Map node left on the
+    default map or a Texture Coordinate node's UV); None for anything else, which leaves the
+    socket's own colour."""
+    links = bsdf.inputs["Base Color"].links
+    node = links[0].from_node if links else None
+    if node is None or node.type != "TEX_IMAGE" or node.image is None or links[0].from_socket.name != "Color":
+        return None
+    vector = node.inputs["Vector"].links
+    source = vector[0].from_node if vector else None
+    if source is not None and not ((source.type == "UVMAP" and not source.uv_map)
+                                   or (source.type == "TEX_COORD" and vector[0].from_socket.name == "UV")):
+        return None  # another map, or coordinates of another kind
+    image = node.image
+    w, h = image.size
+    channels = image.channels
+    if not w or not h or channels < 3:
+        return None
+    pixels = np.empty(w * h * channels, dtype=np.float32)
+    image.pixels.foreach_get(pixels)  # rows bottom up, as UV v runs
+    rgb = pixels.reshape(h, w, channels)[..., :3].astype(np.float64)
+    if image.colorspace_settings.name == "sRGB":
+        rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+    return rgb
 
 
 def _lights(depsgraph, area_samples=4):
@@ -107,15 +135,16 @@ def _meshes(depsgraph):
         a = mesh_io.read_mesh(inst.object, depsgraph, world=False, materials=True)
         m = np.array(inst.matrix_world, dtype=np.float64)
         yield inst.object, mesh_io.MeshArrays(a.vertices @ m[:3, :3].T + m[:3, 3], a.triangles, a.triangle_polygon,
-                                              a.n_polygons, m, a.triangle_material), True
+                                              a.n_polygons, m, a.triangle_material, a.triangle_uv), True
 
 
 def scene_arrays(depsgraph, layered=True):
-    """(LayeredScene, materials, face slots, objects) of the meshes the depsgraph shows, in world
-    space: per object the Materials of its slots and each triangle's slot. Instances are drawn
+    """(LayeredScene, materials, face slots, face UVs, objects) of the meshes the depsgraph shows,
+    in world space: per object the Materials of its slots, each triangle's slot and, for
+    textured materials, its corners' UVs. Instances are drawn
     as they are, outside the layering. Without ``layered`` (plain ray tracing) the global
     normals, body parts and probe distances that only layering uses are not read."""
-    objects, layers, normals, materials, slots, sources = [], [], [], [], [], []
+    objects, layers, normals, materials, slots, uvs, sources = [], [], [], [], [], [], []
     settings = depsgraph.scene.deformrt
     parts = None
     for obj, a, instance in _meshes(depsgraph):
@@ -129,6 +158,7 @@ def scene_arrays(depsgraph, layered=True):
         normals.append(None if n is None or len(n) != len(a.vertices) else n @ np.linalg.inv(a.matrix_world[:3, :3]))
         materials.append(_materials(obj, depsgraph))
         slots.append(a.triangle_material if len(materials[-1]) > 1 else None)
+        uvs.append(a.triangle_uv if any(m.texture is not None for m in materials[-1]) else None)
         sources.append(obj)
         if layered and role == "BODY":
             # no vertex groups: reading them adds a modifier, and a render must not write to the scene
@@ -142,7 +172,7 @@ def scene_arrays(depsgraph, layered=True):
         probe = body_probes(objects, layers, probe_distances(settings, parts is not None), parts, scheme,
                             traced=[lay is not None and lay < top for lay in layers])
     return (LayeredScene(objects, layers, normals, probe_distance=probe, offset=settings.offset), materials, slots,
-            sources)
+            uvs, sources)
 
 
 def body_probes(objects, layers, given=None, parts=None, scheme=None, traced=None):
@@ -226,7 +256,8 @@ class FrameTracer:
         scene = depsgraph.scene
         settings = scene.deformrt
         t0 = time.perf_counter()
-        self.scene, self.materials, self.slots, self.objects = scene_arrays(depsgraph, settings.render_layered)
+        self.scene, self.materials, self.slots, self.uvs, self.objects = scene_arrays(depsgraph,
+                                                                                      settings.render_layered)
         self.seconds = {"read_build_s": time.perf_counter() - t0, "trace_s": 0.0}
         m = np.array(scene.camera.matrix_world)
         self.width, self.height = width, height
@@ -243,7 +274,7 @@ class FrameTracer:
         sl = slice(start * self.width, stop * self.width)
         img = render(self.scene, self.materials, self.lights, self.origins[sl], self.directions[sl],
                      background=self.sky, ambient=np.asarray(self.sky), max_depth=self.max_depth,
-                     layered=self.layered, face_slots=self.slots)
+                     layered=self.layered, face_slots=self.slots, face_uvs=self.uvs)
         self.seconds["trace_s"] += time.perf_counter() - t0
         return img, img.depth * self._to_depth[sl]
 

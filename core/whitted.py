@@ -27,6 +27,9 @@ class Material:
     ior: float = 1.5
     absorption: tuple = (0.0, 0.0, 0.0)  # Beer-Lambert coefficient per unit length, inside
     emission: tuple = (0.0, 0.0, 0.0)  # radiance the surface sends itself, on top of what it reflects
+    # (h, w, 3) linear RGB in place of ``colour``, row 0 at v = 0, read at the faces' UVs
+    # (``render``'s face_uvs) with bilinear filtering, repeating past 0..1 (Cycles' defaults)
+    texture: np.ndarray | None = field(default=None, compare=False)
 
 
 @dataclass(frozen=True)
@@ -80,13 +83,16 @@ def camera_rays(matrix_world, fov_y, width, height):
 
 
 def render(scene: LayeredScene, materials, lights, origins, directions, background=(0.0, 0.0, 0.0),
-           ambient=0.0, max_depth=4, cutoff=0.01, layered=True, face_slots=None) -> Image:
+           ambient=0.0, max_depth=4, cutoff=0.01, layered=True, face_slots=None, face_uvs=None) -> Image:
     """Colour per ray. ``materials`` one per object: a Material, or a list of them that
     ``face_slots`` (per object None or one slot per face; past the last slot, the last) picks
-    from face by face; ``background`` a colour or a function of ray directions (n, 3) -> (n, 3)."""
+    from face by face; ``face_uvs`` per object None or (faces, 3, 2) UVs of each face's corners,
+    for textured materials; ``background`` a colour or a function of ray directions (n, 3) -> (n, 3)."""
     if len(materials) != len(scene.layers):
         raise ValueError(f"{len(materials)} materials for {len(scene.layers)} objects")
     mats, face_material = _material_table(scene, materials, face_slots)
+    textured = [i for i, m in enumerate(mats) if m.texture is not None]
+    uv_table = _uv_table(scene, face_uvs) if textured else None
     if max_depth < 0:
         raise ValueError(f"max_depth must be >= 0, got {max_depth}")
     sky = background if callable(background) else (lambda d: np.broadcast_to(np.asarray(background, float), d.shape))
@@ -130,7 +136,13 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
         trans, mirror, ior = props["transmission"][mat], props["mirror"][mat], props["ior"][mat]
         local = (1 - trans) * (1 - mirror)
         start = _shadow_origin(scene, obj, face, bary, p, np.where(entering, 1.0, -1.0)) + nrm * scene.eps
-        colour_local = _direct(scene, lights, p, start, nrm, d, albedo[mat], props["specular"][mat],
+        albedo_hit = albedo[mat]
+        for i in textured:
+            at = np.flatnonzero(mat == i)
+            if len(at):
+                uv = _corner_blend(uv_table[scene.first_face[obj[at]] + face[at]], bary[at])
+                albedo_hit[at] = _bilinear(mats[i].texture, uv)
+        colour_local = _direct(scene, lights, p, start, nrm, d, albedo_hit, props["specular"][mat],
                                props["shininess"][mat], ambient, stats, layered, obj)
         seen = weight * local[:, None] * colour_local
         if glows:  # emission on top, whatever share of the light the surface reflects or lets through
@@ -181,6 +193,11 @@ def _material_table(scene, materials, face_slots):
         group = [m] if isinstance(m, Material) else list(m)
         if not group or not all(isinstance(x, Material) for x in group):
             raise ValueError(f"materials[{i}] must be a Material or a non-empty list of them")
+        for x in group:
+            t = x.texture
+            if t is not None and (np.ndim(t) != 3 or np.shape(t)[2] != 3 or 0 in np.shape(t)
+                                  or not np.isfinite(t).all()):
+                raise ValueError(f"a texture of materials[{i}] must be finite (h, w, 3) RGB, got shape {np.shape(t)}")
         count = int(scene.first_face[i + 1] - scene.first_face[i])
         slots = None if face_slots is None else face_slots[i]
         if slots is None:
@@ -193,6 +210,42 @@ def _material_table(scene, materials, face_slots):
         rows.append(len(table) + slot)
         table += group
     return table, (np.concatenate(rows) if rows else np.zeros(0, np.int64))
+
+
+def _uv_table(scene, face_uvs):
+    """(faces of the combined scene, 3, 2) corner UVs; zeros for objects without."""
+    if face_uvs is None:
+        face_uvs = [None] * len(scene.layers)
+    if len(face_uvs) != len(scene.layers):
+        raise ValueError(f"face_uvs needs one entry per object ({len(scene.layers)}), got {len(face_uvs)}")
+    parts = []
+    for i, uv in enumerate(face_uvs):
+        count = int(scene.first_face[i + 1] - scene.first_face[i])
+        uv = np.zeros((count, 3, 2)) if uv is None else np.asarray(uv, float)
+        if uv.shape != (count, 3, 2) or not np.isfinite(uv).all():
+            raise ValueError(f"face_uvs[{i}] must be finite with shape ({count}, 3, 2), got {uv.shape}")
+        parts.append(uv)
+    return np.concatenate(parts) if parts else np.zeros((0, 3, 2))
+
+
+def _corner_blend(corners, bary):
+    """Per hit, the (3, k) corner values blended by the hit's barycentrics (u, v)."""
+    u, v = bary[:, 0:1], bary[:, 1:2]
+    return (1 - u - v) * corners[:, 0] + u * corners[:, 1] + v * corners[:, 2]
+
+
+def _bilinear(texture, uv):
+    """Texture (h, w, c) at UVs (n, 2): texel centres at (i + 0.5) / w, bilinear between them,
+    repeating past the edges."""
+    h, w = texture.shape[:2]
+    x, y = uv[:, 0] * w - 0.5, uv[:, 1] * h - 0.5
+    x0, y0 = np.floor(x), np.floor(y)
+    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
+    x0, y0 = x0.astype(np.int64) % w, y0.astype(np.int64) % h
+    x1, y1 = (x0 + 1) % w, (y0 + 1) % h
+    top = texture[y0, x0] * (1 - fx) + texture[y0, x1] * fx
+    bottom = texture[y1, x0] * (1 - fx) + texture[y1, x1] * fx
+    return top * (1 - fy) + bottom * fy
 
 
 def _add(colour, pixel, value, once):

@@ -404,3 +404,34 @@ def test_light_power_follows_exposure_temperature_and_unnormalized_areas(studio,
     corner = (x / np.sqrt(1 + x**2) * np.arctan(y / np.sqrt(1 + x**2))
               + y / np.sqrt(1 + y**2) * np.arctan(x / np.sqrt(1 + y**2))) / (2 * np.pi)
     np.testing.assert_allclose(px[7, 7, :3], (4.0 * 30.0 / (np.pi * 4.0)) * 4 * corner, rtol=3e-3)
+
+
+def test_an_image_texture_on_the_base_colour_is_drawn_at_the_uvs(studio, clean_scene, tmp_path):
+    """A plane (UVs 0..1 across it) whose Base Color comes from an 8 x 8 sRGB image of four
+    coloured quarters: under a sun of strength 2 straight above, the pixel over the middle of
+    each quarter shows its colour, made linear, times 2 / pi (Cycles: the same within its noise)."""
+    scene = _engine(clean_scene)
+    _stage(scene, sun_strength=2.0)
+    bpy.ops.mesh.primitive_plane_add(size=2.0)
+    plane = bpy.context.active_object
+    _material(plane, (0.5, 0.5, 0.5))
+    image = bpy.data.images.new("Quarters", 8, 8)
+    texels = np.array([[0.9, 0.2, 0.1, 1], [0.1, 0.7, 0.2, 1], [0.2, 0.3, 0.9, 1], [1, 1, 1, 1]], np.float32)
+    quarters = texels.reshape(2, 2, 1, 1, 4).transpose(0, 2, 1, 3, 4)  # (row half, 1, column half, 1, rgba)
+    image.pixels.foreach_set(np.broadcast_to(quarters, (2, 4, 2, 4, 4)).reshape(-1))  # rows bottom up
+    tree = plane.active_material.node_tree
+    node = tree.nodes.new("ShaderNodeTexImage")
+    node.image = image
+    tree.links.new(node.outputs["Color"], tree.nodes["Principled BSDF"].inputs["Base Color"])
+    size, half = 41, 5.0 * 18 / 50
+
+    def at(px, x, y):
+        return px[int((1 - (y / half + 1) / 2) * size), int((x / half + 1) / 2 * size), :3]
+
+    px = _render(studio, scene, tmp_path, size=(size, size))
+    stored = np.empty(8 * 8 * 4, np.float32)
+    image.pixels.foreach_get(stored)  # as the image keeps them: 8 bits a channel
+    srgb = stored.reshape(8, 8, 4)[[2, 2, 6, 6], [2, 6, 2, 6], :3].astype(float)
+    linear = np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
+    for (x, y), want in zip([(-0.5, -0.5), (0.5, -0.5), (-0.5, 0.5), (0.5, 0.5)], linear, strict=True):
+        np.testing.assert_allclose(at(px, x, y), 2 * want / np.pi, rtol=1e-5)

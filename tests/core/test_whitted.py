@@ -382,3 +382,30 @@ def test_faces_take_their_slots_material_and_bad_slots_are_refused():
             render(scene, [[red, green]], sun, o, d, face_slots=bad)
     with pytest.raises(ValueError, match="non-empty list"):
         render(scene, [[]], sun, o, d)
+
+
+def test_a_texture_is_read_at_the_hits_uv_bilinear_and_repeating():
+    """A 2 x 2 texture over a unit sheet (UV = position + 0.5): at texel centres each texel's own
+    colour, between two centres their mean, and past the sheet's UV range the texture repeats;
+    under a sun straight above a Lambert surface shows its albedo."""
+    v, f = sheet(size=1.0, n=4)
+    scene = LayeredScene([(v, f)], [None])
+    texels = np.array([[[1.0, 0, 0], [0, 1.0, 0]], [[0, 0, 1.0], [1.0, 1.0, 1.0]]])  # row 0 at v = 0
+    cloth = Material(colour=(0.5, 0.5, 0.5), texture=texels)
+    sun = [Light("SUN", (0, 0, -1), (1, 1, 1))]
+    at = np.array([[0.25, 0.25], [0.75, 0.25], [0.25, 0.75], [0.75, 0.75], [0.5, 0.25], [0.5, 0.5]])
+    o = np.column_stack([at - 0.5, np.ones(len(at))])
+    d = np.tile([0.0, 0.0, -1.0], (len(o), 1))
+    uv = v[f][..., :2] + 0.5
+    img = render(scene, [cloth], sun, o, d, face_uvs=[uv])  # barycentrics come in float32: 1e-6
+    want = [texels[0, 0], texels[0, 1], texels[1, 0], texels[1, 1], texels[0].mean(0), texels.mean((0, 1))]
+    np.testing.assert_allclose(img.colour, want, atol=1e-6)
+    shifted = render(scene, [cloth], sun, o, d, face_uvs=[uv + [3.0, -2.0]])  # whole repeats: the same
+    np.testing.assert_allclose(shifted.colour, want, atol=1e-6)
+    # no UVs given: every hit at UV (0, 0), the mean of the four corners' texels there
+    np.testing.assert_allclose(render(scene, [cloth], sun, o, d).colour, np.tile(texels.mean((0, 1)), (len(o), 1)),
+                               atol=1e-6)
+    with pytest.raises(ValueError, match="texture"):
+        render(scene, [Material(texture=np.zeros((2, 2)))], sun, o, d)
+    with pytest.raises(ValueError, match="face_uvs"):
+        render(scene, [cloth], sun, o, d, face_uvs=[uv[:-1]])
