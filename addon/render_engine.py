@@ -2,13 +2,14 @@
 (seed 4.4, the image-space mode), shaded Whitted-style by core.whitted.
 
 Objects tagged as body or garments are layered (global normals from the stored
-``deformrt_global_normal`` attribute, else each mesh's own normals); everything else is drawn
-as it is. Materials come from the Principled BSDF, slot by slot: base colour, metallic as
-mirror, transmission and IOR, roughness as Blinn-Phong shininess, emission (it shows, it lights
-nothing else). Sun, point, spot and area lights (area lights sampled on a grid for soft
-shadows; a light's Shadow switch is followed). Light strengths are divided by pi on the way in, so
-the seed's Lambert term (albedo times N.L, no 1/pi) gives the radiance Cycles gives: a white
-surface facing a sun of strength 1 is 1/pi.
+``deformrt_global_normal`` attribute, else each mesh's own normals); everything else is drawn as
+it is. Materials come from the Principled BSDF, slot by slot: base colour (or an Image Texture
+feeding it straight, read at the UV map that renders), metallic as mirror, transmission and IOR,
+roughness as Blinn-Phong shininess, emission (it shows, it lights nothing else). Sun, point,
+spot and area lights (area lights sampled on a grid for soft shadows; a light's Shadow switch is
+followed). Light strengths are divided by pi on the way in, so the seed's Lambert term (albedo
+times N.L, no 1/pi) gives the radiance Cycles gives: a white surface facing a sun of strength 1
+is 1/pi.
 
 Passes: Combined; Depth and object index (the objects' pass_index) when the view layer asks for
 them, written as Cycles writes them; and "DeformRT Fixed", 1 where layered tracing changed what
