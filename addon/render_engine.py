@@ -79,9 +79,11 @@ def _base_texture(bsdf):
         return None
     pixels = np.empty(w * h * channels, dtype=np.float32)
     image.pixels.foreach_get(pixels)  # rows bottom up, as UV v runs
-    rgb = pixels.reshape(h, w, channels)[..., :3].astype(np.float64)
+    rgb = np.ascontiguousarray(pixels.reshape(h, w, channels)[..., :3])  # float32: a 4k image is 190 MB so
+    del pixels
     if image.colorspace_settings.name == "sRGB":
-        rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+        low = rgb <= 0.04045
+        rgb = np.where(low, rgb / np.float32(12.92), ((rgb + np.float32(0.055)) / np.float32(1.055)) ** np.float32(2.4))
     return rgb
 
 
