@@ -124,10 +124,13 @@ def _lights(depsgraph, area_samples=4):
 
 
 def _meshes(depsgraph):
-    """(object, its MeshArrays in world space, whether it is an instance) of every mesh the
-    depsgraph shows: in a render, what renders (an object off for rendering is not there, one
-    only hidden in the viewport is), and the meshes collections and geometry nodes instance."""
+    """(object, its MeshArrays in world space, whether it stays outside the layering: an instance)
+    of every mesh the depsgraph shows: in a render, what renders (an object off for rendering is
+    not there, one only hidden in the viewport is), the meshes collections and geometry nodes
+    instance, and what curves, text and surfaces evaluate to."""
     for inst in depsgraph.object_instances:
+        # a curve, text or surface object comes as its own entry and, what renders of it, as
+        # an instance of the mesh it evaluates to: only meshes are read
         if inst.object.type != "MESH":
             continue
         if not inst.is_instance:
@@ -142,18 +145,18 @@ def _meshes(depsgraph):
 
 
 def scene_arrays(depsgraph, layered=True):
-    """(LayeredScene, materials, face slots, face UVs, objects) of the meshes the depsgraph shows,
-    in world space: per object the Materials of its slots, each triangle's slot and, for
-    textured materials, its corners' UVs. Instances are drawn
+    """(LayeredScene, materials, face slots, face UVs, pass indices) of the meshes the depsgraph
+    shows, in world space: per object the Materials of its slots, each triangle's slot, for
+    textured materials its corners' UVs, and its pass index. Instances are drawn
     as they are, outside the layering. Without ``layered`` (plain ray tracing) the global
     normals, body parts and probe distances that only layering uses are not read."""
-    objects, layers, normals, materials, slots, uvs, sources = [], [], [], [], [], [], []
+    objects, layers, normals, materials, slots, uvs, pass_index = [], [], [], [], [], [], []
     settings = depsgraph.scene.deformrt
     parts = None
-    for obj, a, instance in _meshes(depsgraph):
+    for obj, a, outside in _meshes(depsgraph):
         if not len(a.triangles):
             continue
-        role = "NONE" if instance else obj.deformrt.role
+        role = "NONE" if outside else obj.deformrt.role
         objects.append((a.vertices, a.triangles))
         layers.append(None if role == "NONE" else (0 if role == "BODY" else obj.deformrt.layer))
         n = mesh_io.read_point_vectors(obj, GLOBAL_NORMAL_ATTRIBUTE, depsgraph) if layered and role != "NONE" else None
@@ -162,7 +165,7 @@ def scene_arrays(depsgraph, layered=True):
         materials.append(_materials(obj, depsgraph))
         slots.append(a.triangle_material if len(materials[-1]) > 1 else None)
         uvs.append(a.triangle_uv if any(m.texture is not None for m in materials[-1]) else None)
-        sources.append(obj)
+        pass_index.append(obj.pass_index)  # read now: an instance's object lasts while it is iterated
         if layered and role == "BODY":
             # no vertex groups: reading them adds a modifier, and a render must not write to the scene
             parts, _ = body_parts(obj, settings.scheme, a.vertices, groups=False, depsgraph=depsgraph)
@@ -175,7 +178,7 @@ def scene_arrays(depsgraph, layered=True):
         probe = body_probes(objects, layers, probe_distances(settings, parts is not None), parts, scheme,
                             traced=[lay is not None and lay < top for lay in layers])
     return (LayeredScene(objects, layers, normals, probe_distance=probe, offset=settings.offset), materials, slots,
-            uvs, sources)
+            uvs, pass_index)
 
 
 def body_probes(objects, layers, given=None, parts=None, scheme=None, traced=None):
@@ -259,7 +262,7 @@ class FrameTracer:
         scene = depsgraph.scene
         settings = scene.deformrt
         t0 = time.perf_counter()
-        self.scene, self.materials, self.slots, self.uvs, self.objects = scene_arrays(depsgraph,
+        self.scene, self.materials, self.slots, self.uvs, self.pass_index = scene_arrays(depsgraph,
                                                                                       settings.render_layered)
         self.seconds = {"read_build_s": time.perf_counter() - t0, "trace_s": 0.0}
         m = np.array(scene.camera.matrix_world)
@@ -335,7 +338,7 @@ class DEFORMRT_RE_layered(bpy.types.RenderEngine):
             self.report({"ERROR"}, f"DeformRT Layered: {exc}")
             self.end_result(self.begin_result(0, 0, w, h))
             return
-        pass_index = np.array([obj.pass_index for obj in tracer.objects] + [0], np.float32)
+        pass_index = np.array([*tracer.pass_index, 0], np.float32)
         # bands of about 256k pixels: each shows as soon as it is done, Esc stops between them
         # (smaller bands cost the layered loop's few-ray rounds once per band: +20% at 64k)
         band = max(1, min(h, 262144 // max(w, 1)))

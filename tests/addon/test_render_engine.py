@@ -435,3 +435,32 @@ def test_an_image_texture_on_the_base_colour_is_drawn_at_the_uvs(studio, clean_s
     linear = np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
     for (x, y), want in zip([(-0.5, -0.5), (0.5, -0.5), (-0.5, 0.5), (0.5, 0.5)], linear, strict=True):
         np.testing.assert_allclose(at(px, x, y), 2 * want / np.pi, rtol=1e-5)
+
+
+def test_curves_and_text_are_drawn_as_cycles_draws_them(studio, clean_scene, tmp_path):
+    """A bevelled Bézier circle and a text object render as surfaces, once each (they come as
+    their own entries and as instances of what they evaluate to): the pixels each covers (object
+    index) match Cycles' but along the edges."""
+    scene = _engine(clean_scene)
+    _stage(scene, sun_strength=2.0)
+    scene.view_layers[0].use_pass_object_index = True
+    bpy.ops.curve.primitive_bezier_circle_add(radius=1.0, location=(-0.4, 0.0, 0.0))
+    bpy.context.active_object.data.bevel_depth = 0.15
+    bpy.context.active_object.pass_index = 1
+    bpy.ops.object.text_add(location=(0.2, -0.3, 0.0))
+    bpy.context.active_object.data.extrude = 0.05
+    bpy.context.active_object.pass_index = 2
+    size = 48
+    ours = _render(studio, scene, tmp_path, size=(size, size), passes=("IndexOB",))
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples, scene.cycles.filter_width = 1, 0.01  # one ray through each pixel centre
+    theirs = _render(studio, scene, tmp_path, size=(size, size), passes=("IndexOB",))
+    # a pixel next to one of another object in Cycles' image is an edge pixel
+    pad = np.pad(theirs, 1, mode="edge")
+    edge = np.zeros(theirs.shape, bool)
+    for dy, dx in ((0, 1), (2, 1), (1, 0), (1, 2)):
+        edge |= pad[dy:dy + size, dx:dx + size] != theirs
+    for index in (1, 2):
+        assert (theirs == index).sum() > 20
+        differ = (ours == index) != (theirs == index)
+        assert not (differ & ~edge).any()
