@@ -124,36 +124,41 @@ def _lights(depsgraph, area_samples=4):
 
 
 def _meshes(depsgraph):
-    """(object, its MeshArrays in world space, whether it stays outside the layering: an instance)
-    of every mesh the depsgraph shows: in a render, what renders (an object off for rendering is
-    not there, one only hidden in the viewport is), the meshes collections and geometry nodes
-    instance, and what curves, text and surfaces evaluate to."""
+    """(object, its MeshArrays in world space, whether it stays outside the layering: an instance,
+    the Materials of its slots) of every mesh the depsgraph shows: in a render, what renders (an
+    object off for rendering is not there, one only hidden in the viewport is), the meshes
+    collections and geometry nodes instance, and what curves, text and surfaces evaluate to."""
     for inst in depsgraph.object_instances:
         # a curve, text or surface object comes as its own entry and, what renders of it, as
         # an instance of the mesh it evaluates to: only meshes are read
         if inst.object.type != "MESH":
             continue
+        obj = inst.object if inst.is_instance else inst.object.original
+        mats = _materials(obj, depsgraph)
+        textured = any(m.texture is not None for m in mats)  # UVs only where a texture reads them
         if not inst.is_instance:
-            obj = inst.object.original
-            yield obj, mesh_io.read_mesh(obj, depsgraph, materials=True), False
+            yield obj, mesh_io.read_mesh(obj, depsgraph, slots=len(mats) > 1, shading=True, uvs=textured), False, mats
             continue
         # the instanced object's mesh, placed by the instance (read now: the iterator moves on)
-        a = mesh_io.read_mesh(inst.object, depsgraph, world=False, materials=True)
+        a = mesh_io.read_mesh(obj, depsgraph, world=False, slots=len(mats) > 1, shading=True, uvs=textured)
         m = np.array(inst.matrix_world, dtype=np.float64)
-        yield inst.object, mesh_io.MeshArrays(a.vertices @ m[:3, :3].T + m[:3, 3], a.triangles, a.triangle_polygon,
-                                              a.n_polygons, m, a.triangle_material, a.triangle_uv), True
+        normals = (None if a.triangle_normals is None
+                   else mesh_io.world_normals(a.triangle_normals.reshape(-1, 3), m).reshape(-1, 3, 3))
+        yield obj, mesh_io.MeshArrays(a.vertices @ m[:3, :3].T + m[:3, 3], a.triangles, a.triangle_polygon,
+                                      a.n_polygons, m, a.triangle_material, a.triangle_uv, normals), True, mats
 
 
 def scene_arrays(depsgraph, layered=True):
-    """(LayeredScene, materials, face slots, face UVs, pass indices) of the meshes the depsgraph
-    shows, in world space: per object the Materials of its slots, each triangle's slot, for
-    textured materials its corners' UVs, and its pass index. Instances are drawn
-    as they are, outside the layering. Without ``layered`` (plain ray tracing) the global
+    """(LayeredScene, materials, face slots, face UVs, corner normals, pass indices) of the meshes
+    the depsgraph shows, in world space: per object the Materials of its slots, each triangle's
+    slot, for textured materials its corners' UVs, its corners' shading normals as Blender
+    gives them (None for a mesh smooth all over), and its pass index. Instances are drawn as
+    they are, outside the layering. Without ``layered`` (plain ray tracing) the global
     normals, body parts and probe distances that only layering uses are not read."""
-    objects, layers, normals, materials, slots, uvs, pass_index = [], [], [], [], [], [], []
+    objects, layers, normals, materials, slots, uvs, shading, pass_index = [], [], [], [], [], [], [], []
     settings = depsgraph.scene.deformrt
     parts = None
-    for obj, a, outside in _meshes(depsgraph):
+    for obj, a, outside, mats in _meshes(depsgraph):
         if not len(a.triangles):
             continue
         role = "NONE" if outside else obj.deformrt.role
@@ -162,9 +167,10 @@ def scene_arrays(depsgraph, layered=True):
         n = mesh_io.read_point_vectors(obj, GLOBAL_NORMAL_ATTRIBUTE, depsgraph) if layered and role != "NONE" else None
         # stored in object space; normals turn with the inverse transpose
         normals.append(None if n is None or len(n) != len(a.vertices) else n @ np.linalg.inv(a.matrix_world[:3, :3]))
-        materials.append(_materials(obj, depsgraph))
-        slots.append(a.triangle_material if len(materials[-1]) > 1 else None)
-        uvs.append(a.triangle_uv if any(m.texture is not None for m in materials[-1]) else None)
+        materials.append(mats)
+        slots.append(a.triangle_material if len(mats) > 1 else None)
+        uvs.append(a.triangle_uv)
+        shading.append(a.triangle_normals)
         pass_index.append(obj.pass_index)  # read now: an instance's object lasts while it is iterated
         if layered and role == "BODY":
             # no vertex groups: reading them adds a modifier, and a render must not write to the scene
@@ -178,7 +184,7 @@ def scene_arrays(depsgraph, layered=True):
         probe = body_probes(objects, layers, probe_distances(settings, parts is not None), parts, scheme,
                             traced=[lay is not None and lay < top for lay in layers])
     return (LayeredScene(objects, layers, normals, probe_distance=probe, offset=settings.offset), materials, slots,
-            uvs, pass_index)
+            uvs, shading, pass_index)
 
 
 def body_probes(objects, layers, given=None, parts=None, scheme=None, traced=None):
@@ -262,8 +268,8 @@ class FrameTracer:
         scene = depsgraph.scene
         settings = scene.deformrt
         t0 = time.perf_counter()
-        self.scene, self.materials, self.slots, self.uvs, self.pass_index = scene_arrays(depsgraph,
-                                                                                      settings.render_layered)
+        (self.scene, self.materials, self.slots, self.uvs, self.shading,
+         self.pass_index) = scene_arrays(depsgraph, settings.render_layered)
         self.seconds = {"read_build_s": time.perf_counter() - t0, "trace_s": 0.0}
         m = np.array(scene.camera.matrix_world)
         self.width, self.height = width, height
@@ -280,7 +286,7 @@ class FrameTracer:
         sl = slice(start * self.width, stop * self.width)
         img = render(self.scene, self.materials, self.lights, self.origins[sl], self.directions[sl],
                      background=self.sky, ambient=np.asarray(self.sky), max_depth=self.max_depth,
-                     layered=self.layered, face_slots=self.slots, face_uvs=self.uvs)
+                     layered=self.layered, face_slots=self.slots, face_uvs=self.uvs, corner_normals=self.shading)
         self.seconds["trace_s"] += time.perf_counter() - t0
         return img, img.depth * self._to_depth[sl]
 

@@ -83,15 +83,20 @@ def camera_rays(matrix_world, fov_y, width, height):
 
 
 def render(scene: LayeredScene, materials, lights, origins, directions, background=(0.0, 0.0, 0.0),
-           ambient=0.0, max_depth=4, cutoff=0.01, layered=True, face_slots=None, face_uvs=None) -> Image:
+           ambient=0.0, max_depth=4, cutoff=0.01, layered=True, face_slots=None, face_uvs=None,
+           corner_normals=None) -> Image:
     """Colour per ray. ``materials`` one per object: a Material, or a list of them that
     ``face_slots`` (per object None or one slot per face; past the last slot, the last) picks
     from face by face; ``face_uvs`` per object None or (faces, 3, 2) UVs of each face's corners,
-    for textured materials; ``background`` a colour or a function of ray directions (n, 3) -> (n, 3)."""
+    for textured materials; ``corner_normals`` per object None (smooth: its vertex normals) or
+    (faces, 3, 3) unit shading normals of each face's corners (flat faces, sharp edges and
+    custom normals, as Blender gives them); ``background`` a colour or a function of ray
+    directions (n, 3) -> (n, 3)."""
     if len(materials) != len(scene.layers):
         raise ValueError(f"{len(materials)} materials for {len(scene.layers)} objects")
     mats, face_material = _material_table(scene, materials, face_slots)
     textured = [i for i, m in enumerate(mats) if m.texture is not None]
+    corners = _corner_table(scene, corner_normals)
     uv_table = _uv_table(scene, face_uvs) if textured else None
     if max_depth < 0:
         raise ValueError(f"max_depth must be >= 0, got {max_depth}")
@@ -129,13 +134,13 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
         o, d, pixel, weight, depth_of, sigma = o[keep], d[keep], pixel[keep], weight[keep], depth_of[keep], sigma[keep]
         obj, face, bary, t = vis.obj[keep], vis.face[keep], vis.bary[keep], vis.t[keep]
         p = o + d * t[:, None]
-        nrm = _shading_normal(scene, obj, face, bary)
+        nrm = _shading_normal(scene, obj, face, bary, corners)
         entering = np.einsum("ij,ij->i", nrm, d) < 0
         nrm = np.where(entering[:, None], nrm, -nrm)  # faces the incoming ray
         mat = face_material[scene.first_face[obj] + face]
         trans, mirror, ior = props["transmission"][mat], props["mirror"][mat], props["ior"][mat]
         local = (1 - trans) * (1 - mirror)
-        start = _shadow_origin(scene, obj, face, bary, p, np.where(entering, 1.0, -1.0)) + nrm * scene.eps
+        start = _shadow_origin(scene, obj, face, bary, p, np.where(entering, 1.0, -1.0), corners) + nrm * scene.eps
         albedo_hit = albedo[mat]
         for i in textured:
             at = np.flatnonzero(mat == i)
@@ -255,10 +260,33 @@ def _add(colour, pixel, value, once):
         np.add.at(colour, pixel, value)
 
 
-def _shading_normal(scene, obj, face, bary):
-    """The object's interpolated vertex normals (smooth shading); the face's own where they
-    cancel out."""
-    out = scene.interpolate(scene.stacked_shading_normals, obj, face, bary)
+def _corner_table(scene, corner_normals):
+    """(faces of the combined scene, 3, 3) shading normals at each face's corners, the vertex
+    normals where an object has none given; None when none is given at all."""
+    if corner_normals is None or all(c is None for c in corner_normals):
+        return None
+    if len(corner_normals) != len(scene.layers):
+        raise ValueError(f"corner_normals needs one entry per object ({len(scene.layers)}), got {len(corner_normals)}")
+    parts = []
+    for i, given in enumerate(corner_normals):
+        a, b = int(scene.first_face[i]), int(scene.first_face[i + 1])
+        if given is None:
+            parts.append(scene.stacked_shading_normals[scene.scene.faces[a:b]])
+            continue
+        given = np.asarray(given, float)
+        if given.shape != (b - a, 3, 3) or not np.isfinite(given).all():
+            raise ValueError(f"corner_normals[{i}] must be finite with shape ({b - a}, 3, 3), got {given.shape}")
+        parts.append(given)
+    return np.concatenate(parts) if parts else np.zeros((0, 3, 3))
+
+
+def _shading_normal(scene, obj, face, bary, corners=None):
+    """The object's interpolated vertex normals (smooth shading), or its faces' corner normals
+    blended; the face's own where they cancel out."""
+    if corners is None:
+        out = scene.interpolate(scene.stacked_shading_normals, obj, face, bary)
+    else:
+        out = _corner_blend(corners[scene.first_face[obj] + face], bary)
     length = norms(out)
     bad = np.flatnonzero(length < 1e-12)
     if len(bad):
@@ -268,19 +296,21 @@ def _shading_normal(scene, obj, face, bary):
     return out / np.maximum(length, 1e-300)[:, None]
 
 
-def _shadow_origin(scene, obj, face, bary, p, side):
+def _shadow_origin(scene, obj, face, bary, p, side, corner_normals=None):
     """Where shadow rays should leave a smooth-shaded hit: the point moved out to the smooth
-    surface its vertex normals describe (Hanika, "Hacking the shadow terminator", Ray Tracing
-    Gems II ch. 4), so a coarse or folded triangle does not shadow itself where its shading
-    says it is lit. ``side``: +1 on the side the normals point to, -1 on the other."""
-    corners = scene.scene.faces[scene.first_face[obj] + face]
+    surface its vertex normals (or its face's ``corner_normals``) describe (Hanika, "Hacking
+    the shadow terminator", Ray Tracing Gems II ch. 4), so a coarse or folded triangle does not
+    shadow itself where its shading says it is lit. ``side``: +1 on the side the normals point
+    to, -1 on the other."""
+    glob = scene.first_face[obj] + face
+    corners = scene.scene.faces[glob]
     weights = (1 - bary[:, 0] - bary[:, 1], bary[:, 0], bary[:, 1])
     # p lifted out of each corner's tangent plane (normal side * n) where it lies below it,
     # blended by the weights (they sum to one); corner by corner on (n, 3) rows, as (n, 3, 3)
     # temporaries of a frame's hits do not fit in cache
     moved = np.zeros_like(p)
     for k, w in enumerate(weights):
-        n = scene.stacked_shading_normals[corners[:, k]]
+        n = scene.stacked_shading_normals[corners[:, k]] if corner_normals is None else corner_normals[glob, k]
         below = np.minimum(0.0, side * np.einsum("ij,ij->i", p - scene.scene.vertices[corners[:, k]], n))
         moved += (w * below)[:, None] * n
     return p - side[:, None] * moved

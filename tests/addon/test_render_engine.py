@@ -464,3 +464,22 @@ def test_curves_and_text_are_drawn_as_cycles_draws_them(studio, clean_scene, tmp
         assert (theirs == index).sum() > 20
         differ = (ours == index) != (theirs == index)
         assert not (differ & ~edge).any()
+
+
+def test_a_flat_shaded_cube_shows_flat_faces(studio, clean_scene, tmp_path):
+    """A flat-shaded cube (Blender's default) under a tilted sun: every pixel of its top face shows
+    the Lambert term of the face's own normal, as Cycles does (the vertex normals of a cube point
+    along its diagonals and would shade the face as a blob); shaded smooth it varies."""
+    scene = _engine(clean_scene)
+    _stage(scene, sun_strength=2.0)
+    sun = scene.objects["Sun"]
+    sun.rotation_euler = (0.0, np.radians(-30), 0.0)
+    bpy.ops.mesh.primitive_cube_add(size=1.0)
+    cube = bpy.context.active_object
+    _material(cube, (1.0, 1.0, 1.0))
+    size = 41
+    top = _render(studio, scene, tmp_path, size=(size, size))[15:26, 15:26, 0]  # inside the top face
+    np.testing.assert_allclose(top, 2 * np.cos(np.radians(30)) / np.pi, rtol=1e-5)
+    bpy.ops.object.shade_smooth()
+    smooth = _render(studio, scene, tmp_path, size=(size, size))[15:26, 15:26, 0]
+    assert np.ptp(smooth) > 0.05

@@ -409,3 +409,24 @@ def test_a_texture_is_read_at_the_hits_uv_bilinear_and_repeating():
         render(scene, [Material(texture=np.zeros((2, 2)))], sun, o, d)
     with pytest.raises(ValueError, match="face_uvs"):
         render(scene, [cloth], sun, o, d, face_uvs=[uv[:-1]])
+
+
+def test_flat_corner_normals_shade_each_face_by_its_own_normal():
+    """A coarse sphere with every face's corners given its face normal (flat shading): under a
+    sun each pixel is the Lambert term of the face it meets, where smooth vertex normals vary."""
+    sphere = trimesh.creation.icosphere(subdivisions=1, radius=1.0)
+    scene = LayeredScene([(sphere.vertices, sphere.faces)], [None])
+    flat = np.repeat(sphere.face_normals[:, None, :], 3, axis=1)
+    to_sun = np.array([0.3, 0.2, 1.0]) / np.linalg.norm([0.3, 0.2, 1.0])
+    sun = [Light("SUN", tuple(-to_sun), (1, 1, 1))]
+    o, d = down_rays(n=15, z=3.0, spread=0.7)
+    img = render(scene, [Material(colour=(1, 1, 1))], sun, o, d, corner_normals=[flat])
+    face = scene.first_visible(o, d).face
+    lit = np.maximum(0.0, sphere.face_normals[face] @ to_sun)
+    shown = img.index >= 0
+    assert shown.sum() > 100
+    np.testing.assert_allclose(img.colour[shown], np.repeat(lit[shown, None], 3, 1), atol=1e-9)
+    smooth = render(scene, [Material(colour=(1, 1, 1))], sun, o, d)
+    assert np.abs(smooth.colour[shown] - img.colour[shown]).max() > 0.05
+    with pytest.raises(ValueError, match="corner_normals"):
+        render(scene, [Material()], sun, o, d, corner_normals=[flat[:-1]])
