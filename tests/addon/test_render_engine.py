@@ -149,24 +149,34 @@ def test_depth_object_index_and_fixed_passes(studio, clean_scene, tmp_path):
     assert not (layered["IndexOB"] == 1).any()
 
 
+def _white_floor(scene):
+    """No sun, a 40 m white floor under the camera: a stage for one light's own light."""
+    _stage(scene, sun_strength=0.0)
+    bpy.ops.mesh.primitive_plane_add(size=40.0)
+    _material(bpy.context.active_object, (1.0, 1.0, 1.0))
+
+
+def _square_view_factor(x, y):
+    """From the point under the centre of a rectangle of half sides x, y at height 1 to it: the
+    parallel-rectangle view factor (Howell's catalogue B-3) summed over its four corner quarters."""
+    corner = (x / np.sqrt(1 + x**2) * np.arctan(y / np.sqrt(1 + x**2))
+              + y / np.sqrt(1 + y**2) * np.arctan(x / np.sqrt(1 + y**2))) / (2 * np.pi)
+    return 4 * corner
+
+
 def test_area_light_lights_one_side_as_blender_sizes_it(studio, clean_scene, tmp_path):
     """A 1 m square area light of P watts 1 m over a white floor: under its centre E = pi L F,
     with L = P / (pi A) and F the parallel-rectangle view factor (Howell's catalogue B-3); the
     floor sends E / pi back (Cycles: 2.246 at 256 samples for 30 W, this formula 2.287 at the
     point, less the pixel's spread)."""
     scene = _engine(clean_scene)
-    _stage(scene, sun_strength=0.0)
-    bpy.ops.mesh.primitive_plane_add(size=40.0)
-    _material(bpy.context.active_object, (1.0, 1.0, 1.0))
+    _white_floor(scene)
     light = bpy.data.objects.new("Panel", bpy.data.lights.new("Panel", "AREA"))
     light.data.energy, light.data.size, light.location = 30.0, 1.0, (0, 0, 1.0)
     scene.collection.objects.link(light)
     scene.deformrt.render_area_samples = 24
     px = _render(studio, scene, tmp_path, size=(15, 15))  # the centre pixel looks straight down
-    x = y = 0.5
-    corner = (x / np.sqrt(1 + x**2) * np.arctan(y / np.sqrt(1 + x**2))
-              + y / np.sqrt(1 + y**2) * np.arctan(x / np.sqrt(1 + y**2))) / (2 * np.pi)
-    np.testing.assert_allclose(px[7, 7, :3], (30.0 / np.pi) * 4 * corner, rtol=2e-3)
+    np.testing.assert_allclose(px[7, 7, :3], (30.0 / np.pi) * _square_view_factor(0.5, 0.5), rtol=2e-3)
     assert px[0, 0, 0] < px[7, 7, 0]
     light.rotation_euler = (np.pi, 0.0, 0.0)  # turned to face up: the floor is dark
     np.testing.assert_array_equal(_render(studio, scene, tmp_path, size=(15, 15))[..., :3], 0.0)
@@ -248,9 +258,7 @@ def test_spot_light_lights_its_cone_as_blender_shapes_it(extension, studio, clea
     engine = importlib.import_module(f"{extension.__name__}.addon.render_engine")
     whitted = importlib.import_module(f"{extension.__name__}.core.whitted")
     scene = _engine(clean_scene)
-    _stage(scene, sun_strength=0.0)
-    bpy.ops.mesh.primitive_plane_add(size=40.0)
-    _material(bpy.context.active_object, (1.0, 1.0, 1.0))
+    _white_floor(scene)
     spot = bpy.data.objects.new("Spot", bpy.data.lights.new("Spot", "SPOT"))
     spot.data.energy, spot.data.spot_size, spot.data.spot_blend = 30.0, 2 * np.arctan(0.5), 0.4
     spot.location = (0, 0, 1.0)  # shines down its local -z at rest
@@ -382,9 +390,7 @@ def test_light_power_follows_exposure_temperature_and_unnormalized_areas(studio,
     Normalize off sends what one of 30 W does, times its area (here 4 m^2 by object scale 2).
     (Cycles agrees to about 1% on each, the same as on the plain lights.)"""
     scene = _engine(clean_scene)
-    _stage(scene, sun_strength=0.0)
-    bpy.ops.mesh.primitive_plane_add(size=40.0)
-    _material(bpy.context.active_object, (1.0, 1.0, 1.0))
+    _white_floor(scene)
     lamp = bpy.data.objects.new("Lamp", bpy.data.lights.new("Lamp", "POINT"))
     lamp.data.energy, lamp.data.exposure, lamp.location = 30.0, 1.0, (0, 0, 1.0)
     lamp.data.use_temperature, lamp.data.temperature = True, 3000.0
@@ -400,10 +406,8 @@ def test_light_power_follows_exposure_temperature_and_unnormalized_areas(studio,
     scene.collection.objects.link(panel)
     scene.deformrt.render_area_samples = 24
     px = _render(studio, scene, tmp_path, size=(15, 15))
-    x = y = 1.0  # half the side of the 2 m square, 1 m up
-    corner = (x / np.sqrt(1 + x**2) * np.arctan(y / np.sqrt(1 + x**2))
-              + y / np.sqrt(1 + y**2) * np.arctan(x / np.sqrt(1 + y**2))) / (2 * np.pi)
-    np.testing.assert_allclose(px[7, 7, :3], (4.0 * 30.0 / (np.pi * 4.0)) * 4 * corner, rtol=3e-3)
+    # the 2 m square, 1 m up: 120 W over 4 m^2
+    np.testing.assert_allclose(px[7, 7, :3], (4.0 * 30.0 / (np.pi * 4.0)) * _square_view_factor(1.0, 1.0), rtol=3e-3)
 
 
 def test_an_image_texture_on_the_base_colour_is_drawn_at_the_uvs(studio, clean_scene, tmp_path):
