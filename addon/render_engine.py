@@ -32,14 +32,23 @@ FIXED_PASS = "DeformRT Fixed"  # 1 where a probe ray changed what the pixel show
 BACKGROUND_DEPTH = 1e10  # what Cycles writes where no surface is
 
 
-def _materials(obj, depsgraph):
+def _materials(obj, depsgraph, known):
     """The Materials of the object's slots as it is evaluated (geometry nodes may set some), in
     slot order. A slot without a material, or an object without slots, takes the object's
-    colour where one was set (Object > Viewport Display), else Cycles' default grey of 0.8."""
+    colour where one was set (Object > Viewport Display), else Cycles' default grey of 0.8.
+    ``known``: Blender material -> Material, for this frame (each texture read once, however
+    many objects or instances wear it)."""
     ev = obj.evaluated_get(depsgraph)
     own = tuple(ev.color[:3])
     fallback = Material(colour=own if own != (1.0, 1.0, 1.0) else (0.8, 0.8, 0.8))
-    return [_material(slot.material) or fallback for slot in ev.material_slots] or [fallback]
+    out = []
+    for slot in ev.material_slots:
+        mat = slot.material
+        key = None if mat is None else mat.as_pointer()
+        if key not in known:
+            known[key] = _material(mat)
+        out.append(known[key] or fallback)
+    return out or [fallback]
 
 
 def _material(mat):
@@ -79,7 +88,7 @@ def _base_texture(bsdf):
         return None
     pixels = np.empty(w * h * channels, dtype=np.float32)
     image.pixels.foreach_get(pixels)  # rows bottom up, as UV v runs
-    rgb = np.ascontiguousarray(pixels.reshape(h, w, channels)[..., :3])  # float32: a 4k image is 190 MB so
+    rgb = np.ascontiguousarray(pixels.reshape(h, w, channels)[..., :3])  # float32: a 4k image is 190 MB
     del pixels
     if image.colorspace_settings.name == "sRGB":
         low = rgb <= 0.04045
@@ -128,13 +137,14 @@ def _meshes(depsgraph):
     the Materials of its slots) of every mesh the depsgraph shows: in a render, what renders (an
     object off for rendering is not there, one only hidden in the viewport is), the meshes
     collections and geometry nodes instance, and what curves, text and surfaces evaluate to."""
+    known = {}
     for inst in depsgraph.object_instances:
         # a curve, text or surface object comes as its own entry and, what renders of it, as
         # an instance of the mesh it evaluates to: only meshes are read
         if inst.object.type != "MESH":
             continue
         obj = inst.object if inst.is_instance else inst.object.original
-        mats = _materials(obj, depsgraph)
+        mats = _materials(obj, depsgraph, known)
         textured = any(m.texture is not None for m in mats)  # UVs only where a texture reads them
         if not inst.is_instance:
             yield obj, mesh_io.read_mesh(obj, depsgraph, slots=len(mats) > 1, shading=True, uvs=textured), False, mats
