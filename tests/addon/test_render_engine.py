@@ -473,7 +473,8 @@ def test_curves_and_text_are_drawn_as_cycles_draws_them(studio, clean_scene, tmp
 def test_a_flat_shaded_cube_shows_flat_faces(studio, clean_scene, tmp_path):
     """A flat-shaded cube (Blender's default) under a tilted sun: every pixel of its top face shows
     the Lambert term of the face's own normal, as Cycles does (the vertex normals of a cube point
-    along its diagonals and would shade the face as a blob); shaded smooth it varies."""
+    along its diagonals and would shade the face as a blob); shaded smooth it varies, and with
+    its edges marked sharp it is flat again."""
     scene = _engine(clean_scene)
     _stage(scene, sun_strength=2.0)
     sun = scene.objects["Sun"]
@@ -487,3 +488,9 @@ def test_a_flat_shaded_cube_shows_flat_faces(studio, clean_scene, tmp_path):
     bpy.ops.object.shade_smooth()
     smooth = _render(studio, scene, tmp_path, size=(size, size))[15:26, 15:26, 0]
     assert np.ptp(smooth) > 0.05
+    # smooth faces, every edge marked sharp: flat again (Blender's corner normals split there)
+    sharp = cube.data.attributes.new("sharp_edge", "BOOLEAN", "EDGE")
+    sharp.data.foreach_set("value", np.ones(len(cube.data.edges), bool))
+    cube.data.update()
+    top = _render(studio, scene, tmp_path, size=(size, size))[15:26, 15:26, 0]
+    np.testing.assert_allclose(top, 2 * np.cos(np.radians(30)) / np.pi, rtol=1e-5)
