@@ -24,7 +24,7 @@ import numpy as np
 from ..core.body_facts import body_facts
 from ..core.layered_trace import LayeredScene
 from ..core.segmentation import get_scheme, is_skirt, skirt_segments
-from ..core.whitted import Image, Light, Material, camera_rays, render
+from ..core.whitted import Image, Light, Material, Surfaces, camera_rays, render
 from . import mesh_io
 from .layer_resolve import GLOBAL_NORMAL_ATTRIBUTE, body_parts, probe_distances
 
@@ -278,8 +278,8 @@ class FrameTracer:
         scene = depsgraph.scene
         settings = scene.deformrt
         t0 = time.perf_counter()
-        (self.scene, self.materials, self.slots, self.uvs, self.shading,
-         self.pass_index) = scene_arrays(depsgraph, settings.render_layered)
+        self.scene, materials, slots, uvs, shading, self.pass_index = scene_arrays(depsgraph, settings.render_layered)
+        self.surfaces = Surfaces.build(self.scene, materials, slots, uvs, shading)  # once for every band
         self.seconds = {"read_build_s": time.perf_counter() - t0, "trace_s": 0.0}
         m = np.array(scene.camera.matrix_world)
         self.width, self.height = width, height
@@ -294,9 +294,9 @@ class FrameTracer:
         """(image, depth) of rows start..stop-1, counted from the top."""
         t0 = time.perf_counter()
         sl = slice(start * self.width, stop * self.width)
-        img = render(self.scene, self.materials, self.lights, self.origins[sl], self.directions[sl],
+        img = render(self.scene, self.surfaces, self.lights, self.origins[sl], self.directions[sl],
                      background=self.sky, ambient=np.asarray(self.sky), max_depth=self.max_depth,
-                     layered=self.layered, face_slots=self.slots, face_uvs=self.uvs, corner_normals=self.shading)
+                     layered=self.layered)
         self.seconds["trace_s"] += time.perf_counter() - t0
         return img, img.depth * self._to_depth[sl]
 

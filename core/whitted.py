@@ -82,6 +82,32 @@ def camera_rays(matrix_world, fov_y, width, height):
     return np.broadcast_to(m[:3, 3], d.shape).copy(), d
 
 
+@dataclass
+class Surfaces:
+    """What shading needs of a scene's faces, put together once (a frame renders in bands):
+    every material once per object slot and the row of it each face takes, each face's
+    corner UVs (only with a textured material) and corner normals (None: vertex normals)."""
+
+    materials: list
+    face_material: np.ndarray
+    face_uvs: np.ndarray | None
+    corner_normals: np.ndarray | None
+
+    @classmethod
+    def build(cls, scene, materials, face_slots=None, face_uvs=None, corner_normals=None):
+        """See ``render``."""
+        if len(materials) != len(scene.layers):
+            raise ValueError(f"{len(materials)} materials for {len(scene.layers)} objects")
+        mats, face_material = _material_table(scene, materials, face_slots)
+        textured = any(m.texture is not None for m in mats)
+        uvs = _face_table(scene, face_uvs, "face_uvs", 2, lambda a, b: np.zeros((b - a, 3, 2))) if textured else None
+        normals = None
+        if corner_normals is not None and any(c is not None for c in corner_normals):
+            normals = _face_table(scene, corner_normals, "corner_normals", 3,
+                                  lambda a, b: scene.stacked_shading_normals[scene.scene.faces[a:b]])
+        return cls(mats, face_material, uvs, normals)
+
+
 def render(scene: LayeredScene, materials, lights, origins, directions, background=(0.0, 0.0, 0.0),
            ambient=0.0, max_depth=4, cutoff=0.01, layered=True, face_slots=None, face_uvs=None,
            corner_normals=None) -> Image:
@@ -90,14 +116,13 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
     from face by face; ``face_uvs`` per object None or (faces, 3, 2) UVs of each face's corners,
     for textured materials; ``corner_normals`` per object None (smooth: its vertex normals) or
     (faces, 3, 3) unit shading normals of each face's corners (flat faces, sharp edges and
-    custom normals, as Blender gives them); ``background`` a colour or a function of ray
-    directions (n, 3) -> (n, 3)."""
-    if len(materials) != len(scene.layers):
-        raise ValueError(f"{len(materials)} materials for {len(scene.layers)} objects")
-    mats, face_material = _material_table(scene, materials, face_slots)
+    custom normals, as Blender gives them); or ``materials`` a ``Surfaces`` built from all of
+    these once. ``background`` a colour or a function of ray directions (n, 3) -> (n, 3)."""
+    surfaces = (materials if isinstance(materials, Surfaces)
+                else Surfaces.build(scene, materials, face_slots, face_uvs, corner_normals))
+    mats, face_material = surfaces.materials, surfaces.face_material
+    uv_table, corners = surfaces.face_uvs, surfaces.corner_normals
     textured = [i for i, m in enumerate(mats) if m.texture is not None]
-    corners = _corner_table(scene, corner_normals)
-    uv_table = _uv_table(scene, face_uvs) if textured else None
     if max_depth < 0:
         raise ValueError(f"max_depth must be >= 0, got {max_depth}")
     sky = background if callable(background) else (lambda d: np.broadcast_to(np.asarray(background, float), d.shape))
@@ -217,20 +242,24 @@ def _material_table(scene, materials, face_slots):
     return table, (np.concatenate(rows) if rows else np.zeros(0, np.int64))
 
 
-def _uv_table(scene, face_uvs):
-    """(faces of the combined scene, 3, 2) corner UVs; zeros for objects without."""
-    if face_uvs is None:
-        face_uvs = [None] * len(scene.layers)
-    if len(face_uvs) != len(scene.layers):
-        raise ValueError(f"face_uvs needs one entry per object ({len(scene.layers)}), got {len(face_uvs)}")
+def _face_table(scene, per_object, name, width, default):
+    """(faces of the combined scene, 3, width) corner values from one (faces, 3, width) array or
+    None per object; ``default(first, stop)`` fills an object's rows where it has None."""
+    if per_object is None:
+        per_object = [None] * len(scene.layers)
+    if len(per_object) != len(scene.layers):
+        raise ValueError(f"{name} needs one entry per object ({len(scene.layers)}), got {len(per_object)}")
     parts = []
-    for i, uv in enumerate(face_uvs):
-        count = int(scene.first_face[i + 1] - scene.first_face[i])
-        uv = np.zeros((count, 3, 2)) if uv is None else np.asarray(uv, float)
-        if uv.shape != (count, 3, 2) or not np.isfinite(uv).all():
-            raise ValueError(f"face_uvs[{i}] must be finite with shape ({count}, 3, 2), got {uv.shape}")
-        parts.append(uv)
-    return np.concatenate(parts) if parts else np.zeros((0, 3, 2))
+    for i, given in enumerate(per_object):
+        a, b = int(scene.first_face[i]), int(scene.first_face[i + 1])
+        if given is None:
+            parts.append(default(a, b))
+            continue
+        given = np.asarray(given, float)
+        if given.shape != (b - a, 3, width) or not np.isfinite(given).all():
+            raise ValueError(f"{name}[{i}] must be finite with shape ({b - a}, 3, {width}), got {given.shape}")
+        parts.append(given)
+    return np.concatenate(parts) if parts else np.zeros((0, 3, width))
 
 
 def _corner_blend(corners, bary):
@@ -258,26 +287,6 @@ def _add(colour, pixel, value, once):
         colour[pixel] += value
     else:
         np.add.at(colour, pixel, value)
-
-
-def _corner_table(scene, corner_normals):
-    """(faces of the combined scene, 3, 3) shading normals at each face's corners, the vertex
-    normals where an object has none given; None when none is given at all."""
-    if corner_normals is None or all(c is None for c in corner_normals):
-        return None
-    if len(corner_normals) != len(scene.layers):
-        raise ValueError(f"corner_normals needs one entry per object ({len(scene.layers)}), got {len(corner_normals)}")
-    parts = []
-    for i, given in enumerate(corner_normals):
-        a, b = int(scene.first_face[i]), int(scene.first_face[i + 1])
-        if given is None:
-            parts.append(scene.stacked_shading_normals[scene.scene.faces[a:b]])
-            continue
-        given = np.asarray(given, float)
-        if given.shape != (b - a, 3, 3) or not np.isfinite(given).all():
-            raise ValueError(f"corner_normals[{i}] must be finite with shape ({b - a}, 3, 3), got {given.shape}")
-        parts.append(given)
-    return np.concatenate(parts) if parts else np.zeros((0, 3, 3))
 
 
 def _shading_normal(scene, obj, face, bary, corners=None):
