@@ -16,10 +16,13 @@ from .topology import topology_of, vertex_adjacency
 
 _KEEP = 4
 _kept: dict = {}
+# garments' pre-processing kept per body: a figure's four garments, a few times over
+_KEEP_PREPARED = 16
 
 
-def _digest(*arrays) -> bytes:
-    h = hashlib.blake2b(digest_size=16)
+def digest(*arrays) -> bytes:
+    """A key for the content of these arrays (dtype, shape and bytes)."""
+    h = hashlib.sha1(usedforsecurity=False)  # the fastest here (hardware SHA); a key, not a seal
     for a in arrays:
         a = np.ascontiguousarray(a)
         h.update(str((a.dtype, a.shape)).encode())
@@ -27,7 +30,7 @@ def _digest(*arrays) -> bytes:
     return h.digest()
 
 
-def _frozen(a):
+def frozen(a):
     a = np.array(a, copy=True)
     a.flags.writeable = False
     return a
@@ -38,22 +41,23 @@ class BodyFacts:
 
     def __init__(self, vertices, faces):
         # own read-only copies: what is kept must not change under the key it is kept by
-        self.vertices, self.faces = _frozen(vertices), _frozen(faces)
+        self.vertices, self.faces = frozen(vertices), frozen(faces)
         self._normals = self._radius = self._search = self._pieces = self._scene = self._edges = None
         self._normal_agreement = None
         self._junctions = {}
+        self._prepared = {}
 
     @property
     def normals(self) -> np.ndarray:
         if self._normals is None:
-            self._normals = _frozen(vertex_normals(self.vertices, self.faces))
+            self._normals = frozen(vertex_normals(self.vertices, self.faces))
         return self._normals
 
     @property
     def radius(self) -> np.ndarray:
         """Half the chord through the body from each vertex (correspondence.local_radius)."""
         if self._radius is None:
-            self._radius = _frozen(local_radius(self.vertices, self.faces, self.normals, scene=self.scene))
+            self._radius = frozen(local_radius(self.vertices, self.faces, self.normals, scene=self.scene))
         return self._radius
 
     @property
@@ -88,7 +92,7 @@ class BodyFacts:
         if self._normal_agreement is None:
             a, b, c = (self.normals[self.faces[:, k]] for k in range(3))
             dots = [np.einsum("ij,ij->i", x, y) for x, y in ((a, b), (b, c), (a, c))]
-            self._normal_agreement = _frozen(np.minimum(np.minimum(dots[0], dots[1]), dots[2]))
+            self._normal_agreement = frozen(np.minimum(np.minimum(dots[0], dots[1]), dots[2]))
         return self._normal_agreement
 
     @property
@@ -96,7 +100,7 @@ class BodyFacts:
         """Per vertex, which connected piece of the body mesh it is on (0..pieces-1)."""
         if self._pieces is None:
             adjacency = vertex_adjacency(self.faces, len(self.vertices))
-            self._pieces = _frozen(connected_components(adjacency, directed=False)[1].astype(np.int64))
+            self._pieces = frozen(connected_components(adjacency, directed=False)[1].astype(np.int64))
         return self._pieces
 
     def part_radius(self, segment, count: int) -> np.ndarray:
@@ -119,15 +123,29 @@ class BodyFacts:
         return out if given is None else np.where(np.isnan(given), out, given)
 
     def junctions(self, segment):
-        key = _digest(segment)
+        key = digest(segment)
         if key not in self._junctions:
             self._junctions = {key: part_junctions(self.vertices, self.faces, segment)}
         return self._junctions[key]
 
 
+    def prepared(self, key):
+        """What a resolve on this body found for one garment (its body points, normals, parts),
+        kept under ``key`` (the digest of everything it was found from), or None."""
+        found = self._prepared.pop(key, None)
+        if found is not None:
+            self._prepared[key] = found  # most recent last
+        return found
+
+    def keep_prepared(self, key, entry) -> None:
+        self._prepared[key] = entry
+        while len(self._prepared) > _KEEP_PREPARED:
+            self._prepared.pop(next(iter(self._prepared)))
+
+
 def body_facts(vertices, faces) -> BodyFacts:
     """The BodyFacts of this body, the same object for the same content (the last few bodies)."""
-    key = _digest(vertices, faces)
+    key = digest(vertices, faces)
     found = _kept.pop(key, None) or BodyFacts(vertices, faces)
     _kept[key] = found  # most recent last
     while len(_kept) > _KEEP:

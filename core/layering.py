@@ -11,12 +11,13 @@ Inputs are never modified; every stage works on copies.
 from __future__ import annotations
 
 import time
+from typing import NamedTuple
 
 import numpy as np
 import trimesh
 from scipy.spatial import cKDTree
 
-from .body_facts import body_facts
+from .body_facts import body_facts, digest, frozen
 from .body_guard import back_off
 from .correspondence import BodyCorrespondence, closest_on_table, nearest_on_surface, triangle_table
 from .hidden_faces import crossing_faces
@@ -32,6 +33,19 @@ def _found_on_first_use(name, doc):
         self._completed()
         return getattr(self, name)
     return property(get, doc=doc)
+
+
+class _Prepared(NamedTuple):
+    """What the pre-processing finds for one garment (read-only: kept for the next resolve)."""
+
+    corr: BodyCorrespondence
+    at_body: np.ndarray  # the body's normal at each vertex's body point
+    normals: np.ndarray  # the global normals n'
+    vseg: np.ndarray  # segment id per vertex
+    vseg2: np.ndarray  # (n, 2) segment and the part across a nearby junction (-1: none)
+    probe_len: np.ndarray  # l_s per vertex
+    skirt: bool
+    far: int  # vertices farther from the body than their probe reaches
 
 
 class LayeringResult:
@@ -462,7 +476,10 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
 
     body, garments: trimesh.Trimesh in world space, garments ordered inner to outer. A
         garment that comes near no other (see LayeringResult.traced) is returned as it is
-        without any work, the body search included.
+        without any work, the body search included. What a resolve finds for a garment
+        before moving anything (body points, global normals, parts) is kept with the body's
+        facts under the content of all it came from: resolving the same garments again with
+        another offset, falloff or stage switch skips it (stats["garments_kept"]).
     body_segments: optional int per body vertex (body part ids); garment vertices take
         the part of their nearest body point and only meet triangles of the same part.
         Without it, each connected piece of the body mesh is a part.
@@ -585,10 +602,30 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     # garment's box can neither move nor lose a face: it skips every stage, the body search too.
     reach = float(np.nanmax(radius if local_probe else l_seg, initial=0.0)) + d
     traced = _near_another([_box(v) for v, _ in garr], 3 * reach)
+    # What prepare finds for a garment depends on nothing but these and the garment's own
+    # arrays: resolving the same garments again (a setting changed) finds it kept on the body.
+    stage_key = digest(body_seg, l_seg, links, np.array([local_probe, one_part, margin]), np.array(repr(scheme)))
+    memo_keys, reused = {}, []
+
+    def memo_key(i):
+        if i not in memo_keys:
+            given = (g_normals_in[i], g_segments_in[i], g_corr_in[i])
+            c = g_corr_in[i]
+            memo_keys[i] = digest(np.frombuffer(stage_key, np.uint8), *garr[i],
+                                  np.array([x is None for x in given]),
+                                  *(np.asarray(x) for x in given[:2] if x is not None),
+                                  *((c.triangle, c.bary) if c is not None else ()))
+        return memo_keys[i]
+
+    def kept(i):
+        return body.prepared(memo_key(i))
+
     # Closer, before the body search: garments whose reach, bounded by the normals of the body
     # near them, meets no other's skip the search too (sleeves at separate heights). Not with a
-    # scheme: a skirt takes its normals off a hull instead.
-    searchable = [g_corr_in[i] is None and g_normals_in[i] is None for i in range(n_g)]
+    # scheme: a skirt takes its normals off a hull instead. A kept garment's normals are known:
+    # the box from them decides after, as it does for the searched.
+    searchable = [g_corr_in[i] is None and g_normals_in[i] is None and not (traced[i] and kept(i) is not None)
+                  for i in range(n_g)]
     # garment -> its vertices' nearest body vertices, asked there for the search
     nearest = _apart_before_search(garr, traced, body, reach, searchable) if scheme is None else {}
 
@@ -605,18 +642,33 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     def prepare(i, c):
         """Garment i's correspondence c (None: searched), global normals, segments and probe
         lengths; returns its vertices farther from the body than their probe reaches."""
+        entry = kept(i)
+        if entry is None:
+            entry = _prepare(i, c)
+            body.keep_prepared(memo_key(i), entry)
+        else:
+            reused.append(i)
+        # the caller's own copies of what the result hands out: the kept ones must not change
+        kc = entry.corr
+        corr[i] = BodyCorrespondence(kc.triangle.copy(), kc.bary.copy(), kc.distance.copy())
+        normals[i], vseg[i] = entry.normals.copy(), entry.vseg.copy()
+        at_body[i], vseg2[i], probe_len[i] = entry.at_body, entry.vseg2, entry.probe_len
+        if entry.skirt:
+            skirts.append(i)
+        return entry.far
+
+    def _prepare(i, c):
         v, f = garr[i]
         if g_corr_in[i] is not None:
             c = g_corr_in[i]
             # the same body point, where the body is now (posed, or the cloth has moved)
             c = BodyCorrespondence(c.triangle, c.bary, norms(v - c.points(bv, bf)))
-        corr[i] = c
-        at_body[i] = c.normals(body_normals, bf) if len(v) else np.zeros((0, 3))
+        at_body = c.normals(body_normals, bf) if len(v) else np.zeros((0, 3))
         if g_normals_in[i] is not None:
             n = np.asarray(g_normals_in[i], dtype=np.float64)
             n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
         else:
-            n = at_body[i]
+            n = at_body
         skirt = False
         if g_segments_in[i] is not None:
             s = np.asarray(g_segments_in[i], dtype=np.int64)
@@ -630,37 +682,35 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         else:
             s = np.zeros(0, dtype=np.int64)
         if skirt:
-            skirts.append(i)
             # the hull's normals for the whole skirt (torso points too: under the torso's
             # bottom its normals point down, not out of the skirt)
             on_skirt = np.isin(s, (scheme.skirt, scheme.torso))
             if g_normals_in[i] is None and on_skirt.any():
                 n = n.copy()  # at_body keeps the body's own
                 n[on_skirt] = hull_normals(bv, body_seg, (scheme.torso, *scheme.skirt_spans), v[on_skirt])
-        normals[i] = n
         if local_probe and len(v):
             lv = np.einsum("ij,ij->i", c.bary, radius[bf[c.triangle]])
         else:
             lv = l_seg[s]
         if one_part:
             s = np.zeros_like(s)
-        vseg[i] = s
         border = np.full(len(v), -1)
         if len(junctions[0]) and g_segments_in[i] is None and len(v):
             border = _border_segment(v, c.distance, s, junctions, margin)
-        vseg2[i] = np.column_stack([s, border])
-        probe_len[i] = lv
-        return int((c.distance > lv).sum()) if len(v) else 0
+        far = int((c.distance > lv).sum()) if len(v) else 0
+        kept_corr = BodyCorrespondence(*(frozen(a) for a in (c.triangle, c.bary, c.distance)))
+        return _Prepared(kept_corr, frozen(at_body), frozen(n), frozen(s), frozen(np.column_stack([s, border])),
+                         frozen(lv), skirt, far)
 
     def complete():
         """The entries of the garments not searched, for the result's first reader."""
         rest = [i for i in range(n_g) if corr[i] is None]
-        found = search([i for i in rest if g_corr_in[i] is None])
+        found = search([i for i in rest if g_corr_in[i] is None and kept(i) is None])
         for i in rest:
             prepare(i, found.get(i))
 
     searched = [i for i in range(n_g) if traced[i]]
-    found = search([i for i in searched if g_corr_in[i] is None])
+    found = search([i for i in searched if g_corr_in[i] is None and kept(i) is None])
     far = sum(prepare(i, found.get(i)) for i in searched)
     # With the normals known, closer: every move goes along a vertex's n' (at most two reaches
     # inward: tuck, then push) and every ray one reach more, in along -n' or out along n', so a
@@ -848,6 +898,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         "vertices_on_part_borders": int(sum((vseg2[i][:, 1] >= 0).sum() for i in active)),
         "scenes_built": sum(scenes[i].built for i in active),
         "garments_traced": len(active),
+        "garments_kept": len(reused),  # pre-processing found in an earlier resolve of the same garment
     }
     return LayeringResult(out, moved, removed, traced, normals, corr, vseg, skirts, stats,
                           complete if len(active) < n_g else None)

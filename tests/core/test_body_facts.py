@@ -113,3 +113,56 @@ def test_junctions_of_parts_modelled_apart_are_the_vertices_near_the_other_parts
                 want |= {(tuple(np.round(x, 12)), p, q) for x in balls[p].vertices[dist <= reach]}
     assert len(want) > 20
     assert got == want
+
+
+def _same_result(got, want):
+    for a, b in zip(got.garments, want.garments, strict=True):
+        np.testing.assert_array_equal(a.vertices, b.vertices)
+        np.testing.assert_array_equal(a.faces, b.faces)
+    for a, b in zip(got.global_normals, want.global_normals, strict=True):
+        np.testing.assert_array_equal(a, b)
+    for a, b in zip(got.segments, want.segments, strict=True):
+        np.testing.assert_array_equal(a, b)
+    for a, b in zip(got.correspondence, want.correspondence, strict=True):
+        np.testing.assert_array_equal(a.triangle, b.triangle)
+        np.testing.assert_array_equal(a.bary, b.bary)
+
+
+def _from_scratch(body, garments, **params):
+    bf_module._kept.clear()
+    return resolve_layers(body, garments, **params)
+
+
+def test_the_same_garments_resolved_again_reuse_what_was_found_and_never_a_stale_answer():
+    """A second resolve with another offset skips the body search yet equals one from scratch;
+    what the first result handed out may be changed by its caller; a garment changed in place,
+    or a setting the search depends on, is found anew."""
+    body = body_tube()
+    garments = list(noisy_sleeves(n=30))
+    first = _from_scratch(body, garments)
+    assert first.stats["garments_kept"] == 0
+    again = resolve_layers(body, garments, offset=0.004)
+    assert again.stats["garments_kept"] == 2
+    _same_result(again, _from_scratch(body, garments, offset=0.004))
+
+    # the caller's arrays are its own: scribbling on them changes nothing kept
+    resolve_layers(body, garments)
+    handed = resolve_layers(body, garments)
+    handed.global_normals[0] *= -1
+    handed.correspondence[0].bary[:] = 0
+    handed.segments[1][:] = 7
+    after = resolve_layers(body, garments)
+    assert after.stats["garments_kept"] == 2
+    _same_result(after, _from_scratch(body, garments))
+
+    # the inner sleeve moved in place (the same array): it is searched again, the outer is kept
+    resolve_layers(body, garments)
+    garments[0].vertices[:, :2] *= 0.99
+    moved = resolve_layers(body, garments)
+    assert moved.stats["garments_kept"] == 1
+    _same_result(moved, _from_scratch(body, garments))
+
+    resolve_layers(body, garments)
+    shorter = resolve_layers(body, garments, probe_distance=0.02)
+    assert shorter.stats["garments_kept"] == 0
+    _same_result(shorter, _from_scratch(body, garments, probe_distance=0.02))
