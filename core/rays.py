@@ -154,7 +154,9 @@ class RayScene:
         self.faces = f
         self._face_normals = None
         self._planes = None
-        self._plane_owner = self  # a part reads its parent's planes: it names the parent's faces
+        # a part reads its root's planes (it names the root's faces); None for a root, not self:
+        # a scene referring to itself is freed only by the cycle collector, with its Embree memory
+        self._plane_owner = None
         self._face_base = self._face_map = self._parent = None
         self._groups, self._group_start = {}, []  # the BVHs parts instance, dropped on a move
         self._moves = getattr(self, "_moves", -1) + 1
@@ -209,7 +211,7 @@ class RayScene:
         part = object.__new__(RayScene)
         part.threads, part.vertices, part.faces, part._used = self.threads, self.vertices, self.faces, self._used
         part._face_normals = part._planes = part._mesh = part._fallback = part._face_map = part._face_base = None
-        part._plane_owner, part._parent, part._parent_moves = self._plane_owner, self, self._moves
+        part._plane_owner, part._parent, part._parent_moves = self._plane_owner or self, self, self._moves
         part._groups, part._group_start, part._moves = {}, [], 0
         if self._mesh is not None:
             groups = [self._group(a, b) for a, b in ranges]
@@ -369,7 +371,7 @@ class RayScene:
         """Per face (all, or just ``face``), the unnormalised normal, its dot with the first
         corner and its length. All faces are done once per scene and kept, so a hit's float64
         distance is a gather and a few products; a few hits on a big scene do only their own."""
-        if self._plane_owner is not self:
+        if self._plane_owner is not None:
             return self._plane_owner._plane_of(face)
         asked = len(self.faces) if face is None or isinstance(face, slice) else len(face)
         if self._planes is None and asked * 4 < len(self.faces):
