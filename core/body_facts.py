@@ -16,8 +16,10 @@ from .topology import topology_of, vertex_adjacency
 
 _KEEP = 4
 _kept: dict = {}
-# garments' pre-processing kept per body: a figure's four garments, a few times over
+# garments' pre-processing kept per body: a figure's four garments a few times over, within a
+# memory budget (about 120 bytes a garment vertex)
 _KEEP_PREPARED = 16
+_KEEP_PREPARED_BYTES = 256 * 2**20
 
 
 def digest(*arrays) -> bytes:
@@ -133,13 +135,20 @@ class BodyFacts:
         """What a resolve on this body found for one garment (its body points, normals, parts),
         kept under ``key`` (the digest of everything it was found from), or None."""
         found = self._prepared.pop(key, None)
-        if found is not None:
-            self._prepared[key] = found  # most recent last
-        return found
+        if found is None:
+            return None
+        self._prepared[key] = found  # most recent last
+        return found[0]
 
     def keep_prepared(self, key, entry) -> None:
-        self._prepared[key] = entry
-        while len(self._prepared) > _KEEP_PREPARED:
+        """Keep ``entry`` (a tuple of arrays, BodyCorrespondences and numbers), the least recent
+        going first past the count or the memory budget (an entry over the budget is not kept)."""
+        size = _nbytes(entry)
+        if size > _KEEP_PREPARED_BYTES:
+            return
+        self._prepared[key] = (entry, size)
+        while (len(self._prepared) > _KEEP_PREPARED
+               or sum(s for _, s in self._prepared.values()) > _KEEP_PREPARED_BYTES):
             self._prepared.pop(next(iter(self._prepared)))
 
 
@@ -151,6 +160,21 @@ def body_facts(vertices, faces) -> BodyFacts:
     while len(_kept) > _KEEP:
         _kept.pop(next(iter(_kept)))
     return found
+
+
+def _nbytes(value) -> int:
+    if isinstance(value, np.ndarray):
+        return value.nbytes
+    if isinstance(value, tuple):
+        return sum(_nbytes(v) for v in value)
+    return sum(_nbytes(v) for v in vars(value).values()) if hasattr(value, "__dict__") else 0
+
+
+def forget_garments() -> None:
+    """Drop what was kept of every garment (the bodies' own facts stay): resolving garments
+    after it costs what newly draped garments on a known body cost."""
+    for facts in _kept.values():
+        facts._prepared.clear()
 
 
 def part_junctions(vertices, faces, segment):

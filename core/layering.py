@@ -617,8 +617,13 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
                                   *((c.triangle, c.bary) if c is not None else ()))
         return memo_keys[i]
 
+    held = {}
+
     def kept(i):
-        return body.prepared(memo_key(i))
+        """Garment i's kept pre-processing, asked once: keeping another's may drop it after."""
+        if i not in held:
+            held[i] = body.prepared(memo_key(i))
+        return held[i]
 
     # Closer, before the body search: garments whose reach, bounded by the normals of the body
     # near them, meets no other's skip the search too (sleeves at separate heights). Not with a

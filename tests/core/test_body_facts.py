@@ -166,3 +166,20 @@ def test_the_same_garments_resolved_again_reuse_what_was_found_and_never_a_stale
     shorter = resolve_layers(body, garments, probe_distance=0.02)
     assert shorter.stats["garments_kept"] == 0
     _same_result(shorter, _from_scratch(body, garments, probe_distance=0.02))
+
+
+def test_what_is_kept_of_garments_stays_within_its_memory_budget(monkeypatch):
+    body = body_tube()
+    garments = list(noisy_sleeves(n=30))
+    want = _from_scratch(body, garments)
+    one = sum(bf_module._nbytes(e) for e, _ in bf_module.body_facts(body.vertices, body.faces)._prepared.values()) // 2
+    monkeypatch.setattr(bf_module, "_KEEP_PREPARED_BYTES", int(1.5 * one))  # room for one sleeve, not two
+    bf_module._kept.clear()
+    resolve_layers(body, garments)
+    again = resolve_layers(body, garments)
+    assert again.stats["garments_kept"] == 1
+    _same_result(again, want)
+    monkeypatch.setattr(bf_module, "_KEEP_PREPARED_BYTES", 0)
+    bf_module._kept.clear()
+    resolve_layers(body, garments)
+    assert resolve_layers(body, garments).stats["garments_kept"] == 0
