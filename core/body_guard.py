@@ -10,7 +10,7 @@ import numpy as np
 
 from .metrics import crossing_edges
 from .rays import RayScene, step_past_hit
-from .vectors import norms
+from .vectors import norms, rows
 
 # Halvings of a move before it is taken back whole (1, 1/2, 1/4, then 0 of it kept)
 _HALVINGS = 3
@@ -74,7 +74,7 @@ def back_off(body_scene, body_vertices, body_edges, before, after, faces, edges,
     moved = move > 0
     if not moved.any():
         return after, 0
-    length = norms(after[edges[:, 1]] - after[edges[:, 0]])
+    length = norms(rows(after, edges[:, 1]) - rows(after, edges[:, 0]))
     e = edges[(moved[edges[:, 0]] | moved[edges[:, 1]])
               & (clearance[edges[:, 0]] + clearance[edges[:, 1]] <= length)]
     near = clearance <= length.max(initial=0.0)

@@ -15,7 +15,7 @@ import numpy as np
 
 from .rays import RayScene, step_past_hit
 from .topology import used_vertices
-from .vectors import norms
+from .vectors import norms, rows
 
 _MAX_ROUNDS = 64
 
@@ -50,8 +50,8 @@ def crossing_faces(vertices, faces, edges, scenes=None) -> tuple[list, int]:
     present = [k for k in range(len(faces)) if len(faces[k])]
     if len(present) < 2:
         return removed, 0
-    start = [v[e[:, 0]] for v, e in zip(vertices, edges, strict=True)]
-    vec = [v[e[:, 1]] - a for v, e, a in zip(vertices, edges, start, strict=True)]
+    start = [rows(v, e[:, 0]) for v, e in zip(vertices, edges, strict=True)]
+    vec = [rows(v, e[:, 1]) - a for v, e, a in zip(vertices, edges, start, strict=True)]
     length = [norms(x) for x in vec]
     edge_lo = [np.minimum(a, a + b) for a, b in zip(start, vec, strict=True)]
     edge_hi = [np.maximum(a, a + b) for a, b in zip(start, vec, strict=True)]

@@ -24,7 +24,7 @@ from .hidden_faces import crossing_faces
 from .rays import RayScene, step_past_hit
 from .segmentation import get_scheme, hull_normals, is_skirt, skirt_segments
 from .topology import ring_distance, topology_of
-from .vectors import norms
+from .vectors import norms, rows
 
 
 def _found_on_first_use(name, doc):
@@ -204,7 +204,7 @@ def _big_in_reach(points, nearest_distance, body, budget=1_000_000):
     if not len(pi):
         return near[:0]
     faces = body.faces[search.big[near[ti]]]
-    a, b, c = (body.vertices[faces[:, k]] for k in range(3))
+    a, b, c = (rows(body.vertices, faces[:, k]) for k in range(3))
     d2 = closest_on_table(p[pi], triangle_table(a, b, c), bary=False)
     return np.unique(search.big[near[ti[d2 <= r[pi] ** 2]]])
 
@@ -263,7 +263,7 @@ class _SegmentScenes:
     def _face_boxes(self):
         if self._face_box is None:
             # corner by corner: a reduction over an axis of length 3 is several times slower
-            a, b, c = (self.vertices[self.faces[:, i]] for i in range(3))
+            a, b, c = (rows(self.vertices, self.faces[:, i]) for i in range(3))
             self._face_box = (np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c))
         return self._face_box
 
@@ -451,14 +451,14 @@ def _spread_from_hits(vertices, faces, topology, hit_points, amplitude, seed_ver
     of two triangles sharing an edge the ray reported.
     """
     e = topology.edges
-    edge = float(norms(vertices[e[:, 0]] - vertices[e[:, 1]]).mean()) if len(e) else 0.0
+    edge = float(norms(rows(vertices, e[:, 0]) - rows(vertices, e[:, 1])).mean()) if len(e) else 0.0
     c = float(falloff) if falloff is not None else 4.0 * edge
     if c <= 0:
         out = np.zeros(len(vertices))
         np.maximum.at(out, seed_vertices, np.repeat(amplitude, 3))
         return out
     reach = 3.0 * c
-    lengths = norms(vertices[faces[:, 1]] - vertices[faces[:, 0]])
+    lengths = norms(rows(vertices, faces[:, 1]) - rows(vertices, faces[:, 0]))
     shortest = max(float(lengths[lengths > 0].min(initial=edge)), 1e-3 * edge, 1e-300)
     rings = int(min(256, np.ceil(reach / shortest) + 1))
     near_patch = ring_distance(topology.adjacency, np.unique(seed_vertices), rings) >= 0
@@ -757,7 +757,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     floor_clamped = 0
     # An edge between two vertices held at the floor bows into a curved body by its sagitta
     # e^2 / 8R; a tenth of the longest mean edge covers body radii down to 1.25 edges.
-    chord = 0.1 * max((float(norms(verts[i][edges[i][:, 0]] - verts[i][edges[i][:, 1]]).mean())
+    chord = 0.1 * max((float(norms(rows(verts[i], edges[i][:, 0]) - rows(verts[i], edges[i][:, 1])).mean())
                        for i in active if len(edges[i])), default=0.0)
 
     def room_of(k, idx):

@@ -6,6 +6,7 @@ import numpy as np
 
 from .rays import RayScene
 from .topology import edges_with_counts
+from .vectors import rows
 
 
 def unique_edges(faces) -> np.ndarray:
@@ -22,7 +23,8 @@ def crossing_edges(vertices_a, faces_a, scene_b: RayScene, edges=None) -> np.nda
     e = unique_edges(faces_a) if edges is None else edges
     if not len(e):
         return np.zeros(0, dtype=bool)
-    start, vec = v[e[:, 0]], v[e[:, 1]] - v[e[:, 0]]
+    start = rows(v, e[:, 0])
+    vec = rows(v, e[:, 1]) - start
     length = np.linalg.norm(vec, axis=1)
     ok = length > 0
     out = np.zeros(len(e), dtype=bool)

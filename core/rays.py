@@ -17,7 +17,7 @@ import numpy as np
 from . import embree_direct
 from .parallel import map_chunks, thread_count
 from .topology import used_vertices
-from .vectors import norms
+from .vectors import norms, rows
 
 try:
     from embreex import rtcore as _rtc
@@ -285,7 +285,8 @@ class RayScene:
             oo, dd, lo, hi = o, d, None, tmax
         else:
             lo = tmin[idx]
-            oo, dd, hi = o[idx] + d[idx] * lo[:, None], d[idx], tmax[idx] - lo
+            dd = rows(d, idx)
+            oo, hi = rows(o, idx) + dd * lo[:, None], tmax[idx] - lo
         if self._scene is not None:
             tf, ff, uv = self._trace_embree(oo, dd, hi)
         else:
@@ -357,7 +358,7 @@ class RayScene:
             hit = face >= 0
             idx = np.flatnonzero(hit)  # integer takes: boolean indexing of (n, 3) rows is slower
             t = np.full(len(face), np.inf)
-            t[idx] = self._refine_t(oo[idx], dd[idx], face[idx], r["tfar"][idx].astype(np.float64), hi[idx])
+            t[idx] = self._refine_t(rows(oo, idx), rows(dd, idx), face[idx], r["tfar"][idx].astype(np.float64), hi[idx])
             tf[sl], ff[sl] = t, face
             uv[sl, 0] = np.where(hit, r["u"], 0.0)
             uv[sl, 1] = np.where(hit, r["v"], 0.0)
@@ -375,24 +376,30 @@ class RayScene:
             return self._plane_owner._plane_of(face)
         asked = len(self.faces) if face is None or isinstance(face, slice) else len(face)
         if self._planes is None and asked * 4 < len(self.faces):
-            return self._planes_for(self.faces[face])
-        if self._planes is None:
-            self._planes = self._planes_for(self.faces)
-        if face is None:
-            return self._planes
-        return tuple(x[face] for x in self._planes)
+            planes = self._planes_for(self.faces[face])
+        else:
+            if self._planes is None:
+                self._planes = self._planes_for(self.faces)
+            if face is None or isinstance(face, slice):
+                planes = self._planes[face or slice(None)]
+            else:
+                planes = rows(self._planes, face)  # one gather of whole rows
+        return planes[:, :3], planes[:, 3], planes[:, 4]
 
     def _planes_for(self, corners):
+        """(m, 5) rows: the unnormalised normal, its dot with the first corner, its length."""
         v = self.vertices
         a = v[corners[:, 0]]
         e1, e2 = v[corners[:, 1]] - a, v[corners[:, 2]] - a
-        n = np.empty_like(a)
+        out = np.empty((len(a), 5))
+        n = out[:, :3]
         # column by column: np.cross on (m, 3) is several times slower
         n[:, 0] = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
         n[:, 1] = e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]
         n[:, 2] = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-        dot = n[:, 0] * a[:, 0] + n[:, 1] * a[:, 1] + n[:, 2] * a[:, 2]
-        return n, dot, np.sqrt(n[:, 0] ** 2 + n[:, 1] ** 2 + n[:, 2] ** 2)
+        out[:, 3] = n[:, 0] * a[:, 0] + n[:, 1] * a[:, 1] + n[:, 2] * a[:, 2]
+        out[:, 4] = np.sqrt(n[:, 0] ** 2 + n[:, 1] ** 2 + n[:, 2] ** 2)
+        return out
 
     def _refine_t(self, o, d, face, t32, tmax):
         """Float64 distance to the hit triangle's plane, kept inside [0, tmax]."""
