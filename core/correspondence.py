@@ -40,7 +40,7 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     if not len(vertices) or not len(f):
         return np.zeros((len(vertices), 3))
     # corner by corner and column by column: (m, 3, 3) gathers and np.cross on (m, 3) are slower
-    a, b, c = (vertices[f[:, k]] for k in range(3))
+    a, b, c = (rows(vertices, f[:, k]) for k in range(3))
     e1, e2 = b - a, c - a
     cross = np.empty_like(e1)
     cross[:, 0] = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]

@@ -12,7 +12,7 @@ import numpy as np
 
 from .correspondence import vertex_normals
 from .rays import RayHits, RayScene
-from .vectors import unit
+from .vectors import rows, unit
 
 
 @dataclass
@@ -114,9 +114,9 @@ class LayeredScene:
         shape = (-1, *([1] * (np.ndim(stacked) - 1)))
         u, v = bary[:, 0].reshape(shape), bary[:, 1].reshape(shape)
         # corner by corner, in place: (n, 3, ...) gathers of a frame's hits do not fit in cache
-        out = (1 - u - v) * stacked[corner[:, 0]]
-        out += u * stacked[corner[:, 1]]
-        out += v * stacked[corner[:, 2]]
+        out = (1 - u - v) * rows(stacked, corner[:, 0])
+        out += u * rows(stacked, corner[:, 1])
+        out += v * rows(stacked, corner[:, 2])
         out[~hit] = 0.0
         return out
 
@@ -139,7 +139,7 @@ class LayeredScene:
         if not layered or not out.any():
             return out
         ask = np.flatnonzero(out)
-        o, d = np.asarray(origins, float)[ask], np.asarray(directions, float)[ask]
+        o, d = rows(np.asarray(origins, float), ask), rows(np.asarray(directions, float), ask)
         dist = np.broadcast_to(np.asarray(max_dist, float), out.shape)[ask].copy()
         # Anything nothing is worn over (the outermost layer, props) on the way is shown, so it
         # blocks: one occlusion ray settles the rays a stack of covered layers would otherwise

@@ -389,8 +389,8 @@ class RayScene:
     def _planes_for(self, corners):
         """(m, 5) rows: the unnormalised normal, its dot with the first corner, its length."""
         v = self.vertices
-        a = v[corners[:, 0]]
-        e1, e2 = v[corners[:, 1]] - a, v[corners[:, 2]] - a
+        a = rows(v, corners[:, 0])
+        e1, e2 = rows(v, corners[:, 1]) - a, rows(v, corners[:, 2]) - a
         out = np.empty((len(a), 5))
         n = out[:, :3]
         # column by column: np.cross on (m, 3) is several times slower

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .layered_trace import LayeredScene
-from .vectors import norms
+from .vectors import norms, rows
 
 LUMA = np.array([0.299, 0.587, 0.114])  # NTSC luminance weights
 
@@ -152,12 +152,12 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
         travel = np.where(hit, vis.t, 0.0)
         weight = weight * np.exp(-sigma * travel[:, None])
         miss = np.flatnonzero(~hit)  # integer takes: boolean ones of (n, 3) rows are slower
-        _add(colour, pixel[miss], weight[miss] * sky(d[miss]), once)
+        _add(colour, pixel[miss], rows(weight, miss) * sky(rows(d, miss)), once)
         if not hit.any():
             break
         keep = np.flatnonzero(hit)
-        o, d, pixel, weight, depth_of, sigma = o[keep], d[keep], pixel[keep], weight[keep], depth_of[keep], sigma[keep]
-        obj, face, bary, t = vis.obj[keep], vis.face[keep], vis.bary[keep], vis.t[keep]
+        o, d, pixel, weight, depth_of, sigma = (rows(x, keep) for x in (o, d, pixel, weight, depth_of, sigma))
+        obj, face, bary, t = (rows(x, keep) for x in (vis.obj, vis.face, vis.bary, vis.t))
         p = o + d * t[:, None]
         nrm = _shading_normal(scene, obj, face, bary, corners)
         entering = np.einsum("ij,ij->i", nrm, d) < 0
@@ -204,7 +204,8 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
                 continue
             if inside is None:  # refracted rays enter (take the object's absorption) or leave (none)
                 inside = np.where(entering[:, None], absorb[mat], 0.0)
-            batches.append((p[go], direction[go], pixel[go], w[go], next_depth[go], inside[go]))
+            go = np.flatnonzero(go)
+            batches.append(tuple(rows(x, go) for x in (p, direction, pixel, w, next_depth, inside)))
         if not batches:
             break
         o, d, pixel, weight, depth_of, sigma = (np.concatenate(parts) for parts in zip(*batches, strict=True))
@@ -312,15 +313,15 @@ def _shadow_origin(scene, obj, face, bary, p, side, corner_normals=None):
     shadow itself where its shading says it is lit. ``side``: +1 on the side the normals point
     to, -1 on the other."""
     glob = scene.first_face[obj] + face
-    corners = scene.scene.faces[glob]
+    corners = rows(scene.scene.faces, glob)
     weights = (1 - bary[:, 0] - bary[:, 1], bary[:, 0], bary[:, 1])
     # p lifted out of each corner's tangent plane (normal side * n) where it lies below it,
     # blended by the weights (they sum to one); corner by corner on (n, 3) rows, as (n, 3, 3)
     # temporaries of a frame's hits do not fit in cache
     moved = np.zeros_like(p)
     for k, w in enumerate(weights):
-        n = scene.stacked_shading_normals[corners[:, k]] if corner_normals is None else corner_normals[glob, k]
-        below = np.minimum(0.0, side * np.einsum("ij,ij->i", p - scene.scene.vertices[corners[:, k]], n))
+        n = rows(scene.stacked_shading_normals, corners[:, k]) if corner_normals is None else corner_normals[glob, k]
+        below = np.minimum(0.0, side * np.einsum("ij,ij->i", p - rows(scene.scene.vertices, corners[:, k]), n))
         moved += (w * below)[:, None] * n
     return p - side[:, None] * moved
 
@@ -353,14 +354,15 @@ def _direct(scene, lights, p, start, nrm, d, albedo, spec, shine, ambient, stats
                                    leaving=obj[idx])
             stats["shadow_rays"] += len(idx)
             idx = idx[~shadow]
-        cos = np.einsum("ij,ij->i", nrm[idx], to_l[idx])
-        shade = albedo[idx] * cos[:, None]
+        n_i, l_i = rows(nrm, idx), rows(to_l, idx)
+        cos = np.einsum("ij,ij->i", n_i, l_i)
+        shade = rows(albedo, idx) * cos[:, None]
         if spec[idx].any():  # no highlight to add on purely diffuse surfaces
-            half = to_l[idx] - d[idx]
+            half = l_i - rows(d, idx)
             half /= np.maximum(norms(half), 1e-300)[:, None]
-            blinn = np.maximum(0.0, np.einsum("ij,ij->i", nrm[idx], half)) ** shine[idx]
+            blinn = np.maximum(0.0, np.einsum("ij,ij->i", n_i, half)) ** shine[idx]
             shade += (spec[idx] * blinn)[:, None]
-        out[idx] += power[idx] * shade
+        out[idx] += rows(power, idx) * shade
     return out
 
 
