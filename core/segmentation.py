@@ -11,14 +11,16 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError, cKDTree
 
-from .correspondence import closest_point_on_triangles
+from .body_facts import digest
+from .correspondence import closest_on_table, triangle_table
 from .parallel import map_chunks
 from .topology import topology_of
-from .vectors import norms
+from .vectors import norms, rows
 
 
 @dataclass(frozen=True)
@@ -212,7 +214,36 @@ def skirt_segments(vertex_segment, scheme="S5") -> np.ndarray:
     return seg
 
 
-def _nearest_on_convex(points, hv, hf, chunk=1024):
+class _Hull(NamedTuple):
+    """A convex hull as what _nearest_on_convex asks of it, worked out once."""
+
+    tri: np.ndarray  # (m, 3, 3) facets, wound outward
+    normal: np.ndarray  # (m, 3) unit outward normals
+    offset: np.ndarray  # (m,) plane offsets
+    table: np.ndarray  # correspondence.triangle_table of the facets
+    normal32: np.ndarray
+    offset32: np.ndarray
+    centre32: np.ndarray  # facet centres
+    centre_sq: np.ndarray  # their squared lengths
+    reach32: np.ndarray  # facet bounding-sphere radii
+    slack: float
+    size: float  # the hull's diagonal
+
+
+def _prepared_hull(hv, hf) -> _Hull:
+    tri = hv[hf]
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+    offset = np.einsum("ij,ij->i", normal, tri[:, 0])
+    centre = tri.mean(1)
+    reach32 = np.linalg.norm(tri - centre[:, None], axis=2).max(1).astype(np.float32)
+    centre_sq = np.einsum("ij,ij->i", centre, centre).astype(np.float32)
+    return _Hull(tri, normal, offset, triangle_table(tri[:, 0], tri[:, 1], tri[:, 2]), normal.astype(np.float32),
+                 offset.astype(np.float32), centre.astype(np.float32), centre_sq, reach32,
+                 1e-5 * float(np.ptp(hv, axis=0).max()), float(np.linalg.norm(np.ptp(hv, axis=0))))
+
+
+def _nearest_on_convex(points, hull: _Hull, chunk=1024):
     """Per point, the unit normal of the hull facet holding its nearest hull point and the
     vector from that point to it (outward hull, wound outward).
 
@@ -223,21 +254,15 @@ def _nearest_on_convex(points, hv, hf, chunk=1024):
     above by at most that distance and whose bounding sphere is that close. An inside
     point's nearest facet is the one whose plane is closest.
     """
-    tri = hv[hf]
-    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
-    offset = np.einsum("ij,ij->i", normal, tri[:, 0])
+    tri, normal, offset = hull.tri, hull.normal, hull.offset
+    normal32, offset32, centre32, centre_sq, reach32 = hull.normal32, hull.offset32, hull.centre32, hull.centre_sq, \
+        hull.reach32
+    slack = hull.slack
     best = np.zeros(len(points), dtype=np.int64)
     away = np.zeros_like(points)
-    normal32, offset32 = normal.astype(np.float32), offset.astype(np.float32)
-    centre = tri.mean(1)
-    reach32 = np.linalg.norm(tri - centre[:, None], axis=2).max(1).astype(np.float32)
-    centre32, centre_sq = centre.astype(np.float32), np.einsum("ij,ij->i", centre, centre).astype(np.float32)
-    slack = 1e-5 * float(np.ptp(hv, axis=0).max())
 
     def nearest_on(p, facets):
-        t = tri[facets]
-        return np.einsum("ij,ijk->ik", closest_point_on_triangles(p, t[:, 0], t[:, 1], t[:, 2]), t)
+        return np.einsum("ij,ijk->ik", closest_on_table(p, rows(hull.table, facets))[1], rows(tri, facets))
 
     def run(sl):
         p = points[sl]
@@ -263,9 +288,14 @@ def _nearest_on_convex(points, hv, hf, chunk=1024):
             row, col = np.nonzero((hb > 0) & (hb <= ub) & (near <= 0))
             q = nearest_on(po[row], col)
             dist = norms(po[row] - q)
-            # the pair with the smallest distance per point: sort by (point, distance)
-            order = np.lexsort((dist, row))
-            first = order[np.r_[True, row[order][1:] != row[order][:-1]]] if len(order) else order
+            # the pair with the smallest distance per point, the first of a tie (np.nonzero gives
+            # the pairs point by point): a minimum per run of pairs, no sort
+            first = row
+            if len(row):
+                start = np.flatnonzero(np.r_[True, row[1:] != row[:-1]])
+                low = np.minimum.reduceat(dist, start)
+                at = np.flatnonzero(dist == np.repeat(low, np.diff(np.r_[start, len(row)])))
+                first = at[np.r_[True, row[at][1:] != row[at][:-1]]]
             pick[out[row[first]]] = col[first]
             vec[out[row[first]]] = po[row[first]] - q[first]
         best[sl] = pick
@@ -296,7 +326,31 @@ def hull_normals(body_vertices, body_segments, parts, points) -> np.ndarray:
     gap, so its normals point out of the skirt as a whole (the seed's "manual intervention"
     for skirts, done automatically).
     """
-    v = np.asarray(body_vertices, dtype=np.float64)[np.isin(body_segments, parts)]
+    hull = _skirt_hull(np.asarray(body_vertices, dtype=np.float64)[np.isin(body_segments, parts)], parts)
+    # Outside the hull the direction from its nearest point is the outward normal, and it
+    # turns smoothly round the hull's edges; a facet's own normal would jump between facets
+    # (a flared hem beside the legs' hull edge would point backwards). On or inside the hull
+    # the facet normal: the hull's few large facets would blend a bottom cap's -z into every
+    # vertex normal of the flat bridge between the legs.
+    pts = np.asarray(points, dtype=np.float64)
+    facet, away = _nearest_on_convex(pts, hull)
+    outside = np.einsum("ij,ij->i", away, facet) > 1e-6 * hull.size
+    n = facet.copy()
+    # a short bridge of the facet normal keeps points just off the hull from taking a
+    # direction out of round-off
+    n[outside] = away[outside] + facet[outside] * (1e-3 * hull.size)
+    return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+
+
+_hulls: dict = {}  # the last few skirt hulls, by the content of the body points they wrap
+
+
+def _skirt_hull(v, parts) -> _Hull:
+    """The convex hull of body points ``v`` (of ``parts``), reduced and prepared; kept, as every
+    skirt on a body and every frame of a still body asks for the same one."""
+    key = digest(v)
+    if key in _hulls:
+        return _hulls[key]
     try:
         hull = ConvexHull(v)
         # A smooth body's hull has a facet per few vertices on every curve; the normals need
@@ -305,29 +359,18 @@ def hull_normals(body_vertices, body_segments, parts, points) -> np.ndarray:
         hv = v[hull.vertices]
         cell = 0.02 * float(np.linalg.norm(np.ptp(hv, axis=0)))
         if cell > 0 and len(hv) > 64:
-            key = np.unique(np.floor((hv - hv.min(0)) / cell).astype(np.int64), axis=0, return_inverse=True)[1]
-            order = np.lexsort((-np.linalg.norm(hv - hv.mean(0), axis=1), key.ravel()))
-            keep = order[np.r_[True, key.ravel()[order][1:] != key.ravel()[order][:-1]]]
+            cells = np.unique(np.floor((hv - hv.min(0)) / cell).astype(np.int64), axis=0, return_inverse=True)[1]
+            order = np.lexsort((-np.linalg.norm(hv - hv.mean(0), axis=1), cells.ravel()))
+            keep = order[np.r_[True, cells.ravel()[order][1:] != cells.ravel()[order][:-1]]]
             if len(keep) >= 4:
                 v = hv[keep]
                 hull = ConvexHull(v)
     except (QhullError, ValueError) as err:
         raise ValueError(f"the body parts {list(parts)} have no 3-D extent for a skirt hull: {err}") from None
-    hv, hf = _hull_mesh(v, hull)
-    # Outside the hull the direction from its nearest point is the outward normal, and it
-    # turns smoothly round the hull's edges; a facet's own normal would jump between facets
-    # (a flared hem beside the legs' hull edge would point backwards). On or inside the hull
-    # the facet normal: the hull's few large facets would blend a bottom cap's -z into every
-    # vertex normal of the flat bridge between the legs.
-    pts = np.asarray(points, dtype=np.float64)
-    facet, away = _nearest_on_convex(pts, hv, hf)
-    size = float(np.linalg.norm(np.ptp(hv, axis=0)))
-    outside = np.einsum("ij,ij->i", away, facet) > 1e-6 * size
-    n = facet.copy()
-    # a short bridge of the facet normal keeps points just off the hull from taking a
-    # direction out of round-off
-    n[outside] = away[outside] + facet[outside] * (1e-3 * size)
-    return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    if len(_hulls) >= 4:
+        _hulls.pop(next(iter(_hulls)))
+    _hulls[key] = _prepared_hull(*_hull_mesh(v, hull))
+    return _hulls[key]
 
 
 __all__ = ["S5", "S13", "SCHEMES", "Scheme", "boundary_loops", "get_scheme", "hull_normals", "is_skirt",

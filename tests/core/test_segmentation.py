@@ -11,6 +11,7 @@ from core.segmentation import (
     S13,
     _hull_mesh,
     _nearest_on_convex,
+    _prepared_hull,
     boundary_loops,
     hull_normals,
     is_skirt,
@@ -219,7 +220,7 @@ def test_nearest_on_convex_hull_matches_every_facet_tried(seed):
     pts = np.vstack([rng.normal(size=(3000, 3)) * [0.4, 0.25, 1.0],
                      hv[rng.integers(len(hv), size=200)] * 1.2,  # beyond the corners
                      tri[:, :2].mean(1)[:200] * 1.1])  # beyond the edges
-    facet, away = _nearest_on_convex(pts, hv, hf)
+    facet, away = _nearest_on_convex(pts, _prepared_hull(hv, hf))
     # every facet of every point, by brute force
     p = np.repeat(pts, len(hf), axis=0)
     t = np.tile(tri, (len(pts), 1, 1))
