@@ -15,7 +15,7 @@ from scipy.spatial import cKDTree
 from .parallel import map_chunks
 from .rays import RayScene
 from .topology import used_vertices
-from .vectors import norms, rows, unit
+from .vectors import box, norms, rows, unit
 
 
 @dataclass
@@ -158,13 +158,13 @@ def surface_search(vertices, faces, ring_width: int = 8) -> SurfaceSearch:
     ids = np.flatnonzero(used_vertices(faces, len(vertices)))
     incident = incident_triangles(faces, len(vertices), ring_width)[ids]
     # float32 about the surface's centre, so precision follows its size
-    centre = 0.5 * (vertices.min(0) + vertices.max(0)) if len(vertices) else np.zeros(3)
+    centre = 0.5 * np.add(*box(vertices)) if len(vertices) else np.zeros(3)
     tri = vertices[faces] - centre
     table = triangle_table(tri[:, 0], tri[:, 1], tri[:, 2], np.float32)
     longest = np.sqrt(np.max(table[:, 12:14], axis=1, initial=0.0))  # |ab|, |ac| (|bc| < their sum)
     big = np.flatnonzero(longest > _BIG * np.median(longest)) if len(faces) else np.zeros(0, np.int64)
-    box = np.stack([tri[big].min(1), tri[big].max(1)]).astype(np.float32)
-    return SurfaceSearch(cKDTree(vertices[ids]), ids, incident, table, centre, big, box)
+    big_box = np.stack([tri[big].min(1), tri[big].max(1)]).astype(np.float32)
+    return SurfaceSearch(cKDTree(vertices[ids]), ids, incident, table, centre, big, big_box)
 
 
 def _nearer_big(points32, best_d2, search, block: int = 512):
@@ -176,7 +176,7 @@ def _nearer_big(points32, best_d2, search, block: int = 512):
     rows = np.arange(len(points32))
     # first the boxes within reach of the points' box at all (a figure's caps far from its sleeves)
     reach = float(np.sqrt(best.max(initial=0.0)))
-    p_lo, p_hi = points32.min(0) - reach, points32.max(0) + reach
+    p_lo, p_hi = (corner + step for corner, step in zip(box(points32), (-reach, reach), strict=True))
     ask = search.big_box[0] <= p_hi
     ask &= search.big_box[1] >= p_lo
     ask = np.flatnonzero(ask.all(1))

@@ -15,7 +15,7 @@ import numpy as np
 
 from .rays import RayScene, step_past_hit
 from .topology import used_vertices
-from .vectors import norms, rows
+from .vectors import box, norms, rows
 
 _MAX_ROUNDS = 64
 
@@ -37,7 +37,7 @@ def _edge_faces(faces, edges, crossed, n_vertices):
 def _bounds(vertices, faces):
     used = used_vertices(faces, len(vertices))
     v = vertices if used.all() else vertices[used]
-    return v.min(0), v.max(0)
+    return box(v)
 
 
 def crossing_faces(vertices, faces, edges, scenes=None) -> tuple[list, int]:

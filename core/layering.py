@@ -24,7 +24,7 @@ from .hidden_faces import crossing_faces
 from .rays import RayScene, step_past_hit
 from .segmentation import get_scheme, hull_normals, is_skirt, skirt_segments
 from .topology import ring_distance, topology_of
-from .vectors import norms, rows
+from .vectors import box, norms, rows
 
 
 def _found_on_first_use(name, doc):
@@ -108,7 +108,8 @@ def _box(*points):
     pts = [p for p in points if len(p)]
     if not pts:
         return np.full(3, np.inf), np.full(3, -np.inf)
-    return np.min([p.min(0) for p in pts], axis=0), np.max([p.max(0) for p in pts], axis=0)
+    corners = [box(p) for p in pts]
+    return np.min([lo for lo, _ in corners], axis=0), np.max([hi for _, hi in corners], axis=0)
 
 
 def _near_another(boxes, grow):
@@ -131,7 +132,7 @@ def _swept_bound(v, near, nearest_distance, body, reach):
     search = body.search
     picked = np.zeros(len(body.faces) + 1, dtype=bool)  # one more: the -1 padding lands there
     picked[search.incident[near].ravel()] = True
-    lo, hi = v.min(0), v.max(0)
+    lo, hi = box(v)
     if len(search.big):
         picked[_big_in_reach(v, nearest_distance, body)] = True
     tri = np.flatnonzero(picked[:-1])
@@ -557,7 +558,8 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         links = links | links.T | np.eye(n_seg, dtype=bool)
     # every part meets every other: trace them as one (same hits, one batch per layer)
     one_part = scheme is None and bool(links.all())
-    diag = float(np.linalg.norm(np.ptp(bv, axis=0)))
+    body_lo, body_hi = box(bv)
+    diag = float(np.linalg.norm(body_hi - body_lo))
     if diag <= 0:
         raise ValueError("body has zero size")
     d = float(params.get("offset", 1e-3 * diag))

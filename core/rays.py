@@ -17,7 +17,7 @@ import numpy as np
 from . import embree_direct
 from .parallel import map_chunks, thread_count
 from .topology import used_vertices
-from .vectors import norms, rows
+from .vectors import box, norms, rows
 
 try:
     from embreex import rtcore as _rtc
@@ -165,7 +165,7 @@ class RayScene:
             return
         self._used = np.flatnonzero(used_vertices(f, len(v)))
         # Re-centre before float32 so precision follows the scene's size, not its distance from 0.
-        self._center = 0.5 * (v[self._used].min(0) + v[self._used].max(0)) if len(f) else np.zeros(3)
+        self._center = 0.5 * np.add(*box(rows(v, self._used))) if len(f) else np.zeros(3)
         self._scene = None
         self._mesh = None
         self._fallback = None
@@ -191,7 +191,7 @@ class RayScene:
         in_place = self._mesh is not None and v.shape == self.vertices.shape and np.isfinite(v).all()
         if in_place:
             used = v[self._used]
-            lo, hi = used.min(0), used.max(0)
+            lo, hi = box(used)
             in_place = np.linalg.norm(0.5 * (lo + hi) - self._center) <= np.linalg.norm(hi - lo)
         self._set_vertices(vertices, in_place=in_place)
 
