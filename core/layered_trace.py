@@ -12,7 +12,7 @@ import numpy as np
 
 from .correspondence import vertex_normals
 from .rays import RayHits, RayScene
-from .vectors import rows, unit
+from .vectors import box, rows, unit
 
 
 @dataclass
@@ -67,7 +67,7 @@ class LayeredScene:
         all_f = _stack_faces(self.faces, [len(v) for v in self.vertices]) if self.faces else np.zeros((0, 3))
         self.scene = RayScene(all_v, all_f)
         self.face_object = np.repeat(np.arange(len(objects)), counts)
-        self.size = float(np.linalg.norm(np.ptp(all_v, axis=0))) if len(all_v) else 1.0
+        self.size = float(np.linalg.norm(np.diff(box(all_v), axis=0))) if len(all_v) else 1.0
         self.eps = 1e-5 * max(self.size, 1e-12)  # above float32 round-off in Embree
         self.object_layer = np.array([-1 if lay is None else lay for lay in self.layers] + [-1])
         # per layer: the objects worn over it, their ray scene (built on first use: plain tracing
@@ -77,17 +77,19 @@ class LayeredScene:
             ids = [i for i, lay in enumerate(self.layers) if lay is not None and lay > layer and len(self.faces[i])]
             if ids:
                 self._cover_ids[layer] = ids
-                box = np.vstack([np.min([self.vertices[i].min(0) for i in ids], axis=0),
-                                 np.max([self.vertices[i].max(0) for i in ids], axis=0)])
+                corners = [box(self.vertices[i]) for i in ids if len(self.vertices[i])]
+                cover = np.vstack([np.min([lo for lo, _ in corners], axis=0),
+                                   np.max([hi for _, hi in corners], axis=0)])
                 reach = max((float(self.probes[i].max(initial=0.0)) for i, lay in enumerate(self.layers)
                              if lay == layer), default=0.0) + abs(self.offset)
                 # the layer's own box inside that box grown by reach / sqrt(3) on every side lies
                 # within reach of it everywhere: no hit on the layer needs the per-hit test
                 own = [self.vertices[i] for i, lay in enumerate(self.layers) if lay == layer and len(self.vertices[i])]
-                grown = (box[0] - reach / np.sqrt(3), box[1] + reach / np.sqrt(3))
-                inside = bool(own) and bool((np.min([v.min(0) for v in own], axis=0) >= grown[0]).all()
-                                            and (np.max([v.max(0) for v in own], axis=0) <= grown[1]).all())
-                self._cover_box[layer] = (box, reach, inside)
+                grown = (cover[0] - reach / np.sqrt(3), cover[1] + reach / np.sqrt(3))
+                mine = [box(v) for v in own]
+                inside = bool(own) and bool((np.min([lo for lo, _ in mine], axis=0) >= grown[0]).all()
+                                            and (np.max([hi for _, hi in mine], axis=0) <= grown[1]).all())
+                self._cover_box[layer] = (cover, reach, inside)
         # per layer value (-1, a miss or an object outside the layering, last): is anything worn over it?
         top = max([lay for lay in self.layers if lay is not None], default=-1)
         self._has_cover = np.zeros(top + 2, bool)

@@ -78,7 +78,7 @@ def camera_rays(matrix_world, fov_y, width, height):
     gx, gy = np.meshgrid(x, y)
     local = np.stack([gx.ravel(), gy.ravel(), -np.ones(gx.size)], 1)
     d = local @ m[:3, :3].T
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    d /= norms(d)[:, None]
     return np.broadcast_to(m[:3, 3], d.shape).copy(), d
 
 
