@@ -53,36 +53,44 @@ def crossing_faces(vertices, faces, edges, scenes=None) -> tuple[list, int]:
     start = [rows(v, e[:, 0]) for v, e in zip(vertices, edges, strict=True)]
     vec = [rows(v, e[:, 1]) - a for v, e, a in zip(vertices, edges, start, strict=True)]
     length = [norms(x) for x in vec]
+    # unit directions once per layer, as RayScene makes them, for its edges' traces against
+    # every other layer (zero-length edges are never traced)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        unit = [x / n[:, None] for x, n in zip(vec, length, strict=True)]
     edge_lo = [np.minimum(a, a + b) for a, b in zip(start, vec, strict=True)]
     edge_hi = [np.maximum(a, a + b) for a, b in zip(start, vec, strict=True)]
     crossed = [np.zeros(len(e), dtype=bool) for e in edges]
     rays = 0
     for j in present:
         lo, hi = _bounds(vertices[j], faces[j])
-        others = [k for k in present if k != j]
-        # only edges reaching into the layer's bounds can cross it
-        picks = []
-        for k in others:
+        scene = None
+        found = []  # (layer, its edges that pass through something of layer j)
+        for k in (k for k in present if k != j):
+            # only edges reaching into the layer's bounds can cross it
             near = length[k] > 0
             for axis in range(3):  # column by column: all(axis=1) on (n, 3) is slow
                 near &= (edge_lo[k][:, axis] <= hi[axis]) & (edge_hi[k][:, axis] >= lo[axis])
-            picks.append(np.flatnonzero(near))
-        if not sum(len(p) for p in picks):
+            pick = np.flatnonzero(near)
+            if not len(pick):
+                continue
+            if scene is None:
+                scene = scenes[j] if scenes is not None and scenes[j] is not None else RayScene(vertices[j], faces[j])
+            rays += len(pick)
+            # a layer's edges against another, straight from its arrays where all of them are asked
+            every = len(pick) == len(near)
+            o, d, t = ((start[k], unit[k], length[k]) if every else
+                       (rows(start[k], pick), rows(unit[k], pick), length[k][pick]))
+            found.append((k, pick[scene.occluded(o, d, max_dist=t, unit=True)]))
+        found = [(k, idx) for k, idx in found if len(idx)]
+        if not found:
             continue
-        scene = scenes[j] if scenes is not None and scenes[j] is not None else RayScene(vertices[j], faces[j])
-        # gathered straight into one array per quantity (no per-layer pieces to join)
-        total = sum(len(p) for p in picks)
-        o, d, tmax = np.empty((total, 3)), np.empty((total, 3)), np.empty(total)
-        at = 0
-        for k, p in zip(others, picks, strict=True):
-            np.take(start[k], p, axis=0, out=o[at:at + len(p)])
-            np.take(vec[k], p, axis=0, out=d[at:at + len(p)])
-            np.take(length[k], p, out=tmax[at:at + len(p)])
-            at += len(p)
-        owner = np.concatenate([np.full(len(p), k) for k, p in zip(others, picks, strict=True)])
-        index = np.concatenate(picks)
-        rays += len(o)
-        live = np.flatnonzero(scene.occluded(o, d, max_dist=tmax))
+        # the few edges that cross something, traced on to name each triangle they pass through
+        owner = np.concatenate([np.full(len(idx), k) for k, idx in found])
+        index = np.concatenate([idx for _, idx in found])
+        o = np.concatenate([rows(start[k], idx) for k, idx in found])
+        d = np.concatenate([rows(vec[k], idx) for k, idx in found])
+        tmax = np.concatenate([length[k][idx] for k, idx in found])
+        live = np.arange(len(o))
         t_min = np.zeros(len(o))
         step = step_past_hit(tmax, lo, hi)
         for _ in range(_MAX_ROUNDS):  # every triangle of layer j along each crossing edge

@@ -99,11 +99,13 @@ def _as_points(name: str, arr, allow_empty: bool = True) -> np.ndarray:
     return a
 
 
-def _as_rays(origins, directions) -> tuple[np.ndarray, np.ndarray]:
+def _as_rays(origins, directions, unit=False) -> tuple[np.ndarray, np.ndarray]:
     o = _as_points("origins", origins)
     d = _as_points("directions", directions)
     if d.shape != o.shape:
         raise ValueError(f"origins {o.shape} and directions {d.shape} must have the same shape")
+    if unit:
+        return o, d
     length = norms(d)
     if len(length) and not (length > 0).all():
         raise ValueError(f"directions has {(length <= 0).sum()} zero-length vectors")
@@ -304,10 +306,12 @@ class RayScene:
             t[idx], face[idx], bary[idx] = tf, ff, uv
         return RayHits(t, face, bary, self.normals_of)
 
-    def occluded(self, origins, directions, max_dist=None, min_dist=None) -> np.ndarray:
-        """True where something lies between ``min_dist`` and ``max_dist`` along the ray."""
+    def occluded(self, origins, directions, max_dist=None, min_dist=None, unit=False) -> np.ndarray:
+        """True where something lies between ``min_dist`` and ``max_dist`` along the ray.
+        ``unit``: the directions are of length one already (``d / norms(d)``, as made here),
+        for a caller tracing the same rays against several scenes."""
         self._check_fresh()
-        o, d = _as_rays(origins, directions)
+        o, d = _as_rays(origins, directions, unit)
         n = len(o)
         tmax = _as_range("max_dist", max_dist, n, np.inf)
         tmin = _as_range("min_dist", min_dist, n, 0.0)
