@@ -15,6 +15,7 @@ import trimesh
 from ..core import metrics
 from ..core.layering import resolve_layers
 from ..core.segmentation import get_scheme, part_of_group, segments_from_groups
+from ..core.vectors import cross, norms, rows
 from . import mesh_io, results, scene_roles
 
 PART_GROUP_PREFIX = "DRT_"
@@ -279,13 +280,13 @@ def finish_resolve(scene, job: ResolveJob, result) -> ResolveSummary:
     for obj, a, n in zip(garments, arrays[1:], normals, strict=True):
         if n is None:  # not traced: nothing moved, so no normal of it mattered
             continue
-        tri = a.vertices[a.triangles]
-        facing = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-        out = np.einsum("ij,ij->i", facing, n[a.triangles].sum(1))
+        corner = [rows(a.vertices, a.triangles[:, k]) for k in range(3)]
+        facing = cross(corner[1] - corner[0], corner[2] - corner[0])
+        out = np.einsum("ij,ij->i", facing, sum(rows(n, a.triangles[:, k]) for k in range(3)))
         if (out < 0).mean() > 0.5:
             inward.append(obj.name)
     summary = ResolveSummary(job.body.name, [g.name for g in garments], job.source, st,
-                             [float(np.linalg.norm(m, axis=1).max(initial=0.0)) for m in result.moved], faces_hidden,
+                             [float(norms(m).max(initial=0.0)) for m in result.moved], faces_hidden,
                              {"read_s": job.read_s, "resolve_s": st["total_s"], "write_s": write_s,
                               "total_s": time.perf_counter() - job.t0}, inward,
                              alone=[g.name for g, t in zip(garments, result.traced, strict=True) if not t])

@@ -17,7 +17,7 @@ import numpy as np
 from . import embree_direct
 from .parallel import map_chunks, thread_count
 from .topology import used_vertices
-from .vectors import box, norms, rows
+from .vectors import box, cross, norms, rows
 
 try:
     from embreex import rtcore as _rtc
@@ -396,11 +396,7 @@ class RayScene:
         a = rows(v, corners[:, 0])
         e1, e2 = rows(v, corners[:, 1]) - a, rows(v, corners[:, 2]) - a
         out = np.empty((len(a), 5))
-        n = out[:, :3]
-        # column by column: np.cross on (m, 3) is several times slower
-        n[:, 0] = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
-        n[:, 1] = e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]
-        n[:, 2] = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+        n = cross(e1, e2, out=out[:, :3])
         out[:, 3] = n[:, 0] * a[:, 0] + n[:, 1] * a[:, 1] + n[:, 2] * a[:, 2]
         out[:, 4] = np.sqrt(n[:, 0] ** 2 + n[:, 1] ** 2 + n[:, 2] ** 2)
         return out

@@ -18,6 +18,16 @@ def unit(v: np.ndarray) -> np.ndarray:
     return np.divide(v, length, out=np.zeros_like(v, dtype=float), where=length > 0)
 
 
+def cross(a: np.ndarray, b: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """Row-wise cross products of two (n, 3) arrays (into ``out`` if given): np.cross's numbers,
+    column by column, several times faster on (n, 3) rows."""
+    out = np.empty(np.broadcast_shapes(np.shape(a), np.shape(b))) if out is None else out
+    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return out
+
+
 def rows(a: np.ndarray, index) -> np.ndarray:
     """``a[index]`` for an integer index array (any shape): the rows it names. np.take gathers
     rows of a 2-D array 4-10x faster than indexing does in numpy 1.26, which takes a generic
@@ -33,4 +43,4 @@ def box(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             np.array([v[:, k].max() for k in range(v.shape[1])]))
 
 
-__all__ = ["box", "norms", "rows", "unit"]
+__all__ = ["box", "cross", "norms", "rows", "unit"]
