@@ -274,13 +274,14 @@ class _SegmentScenes:
         half of the layer (built for one use); else (the full scene, None: its own face
         numbers). None if none is near."""
         lo, hi = self._face_boxes()
-        lo, hi = lo[ids], hi[ids]
+        lo, hi = rows(lo, ids), rows(hi, ids)
         centre = 0.5 * (lo + hi)
         cell = reach + 0.5 * float(norms(hi - lo).max(initial=0.0))
         keep = np.zeros(len(ids), dtype=bool)
         if cell > 0 and len(ids) and len(points):
-            base = points.min(0) - 2 * cell  # every cell index of interest is >= 1
-            size = np.floor((np.maximum(points.max(0), centre.max(0)) - base) / cell).astype(np.int64) + 3
+            p_lo, p_hi = box(points)
+            base = p_lo - 2 * cell  # every cell index of interest is >= 1
+            size = np.floor((np.maximum(p_hi, box(centre)[1]) - base) / cell).astype(np.int64) + 3
             # beyond int64 key range (a reach tiny against the layer) the voxels would alias
             if float(np.prod(size.astype(float))) < 2.0**62:
                 def key(q):
@@ -308,8 +309,8 @@ class _SegmentScenes:
             order, starts, seg = self.layout.groups()
             if len(order):
                 face_lo, face_hi = self._face_boxes()
-                self._bounds[seg, 0] = np.minimum.reduceat(face_lo[order], starts, axis=0)
-                self._bounds[seg, 1] = np.maximum.reduceat(face_hi[order], starts, axis=0)
+                self._bounds[seg, 0] = np.minimum.reduceat(rows(face_lo, order), starts, axis=0)
+                self._bounds[seg, 1] = np.maximum.reduceat(rows(face_hi, order), starts, axis=0)
         boxes = self._bounds[self.layout.links[segment]]
         boxes = boxes[~np.isnan(boxes[:, 0, 0])]
         return bool(len(boxes)) and bool((boxes[:, 0].min(0) <= hi).all() and (boxes[:, 1].max(0) >= lo).all())
@@ -361,12 +362,12 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
     allowed = np.zeros((n, len(links)), dtype=bool)
     rows_of, box_of = {}, {}
     for s in ray_segments:
-        rows = rows_of[s] = np.flatnonzero((segs == s).any(1))
-        allowed[rows] |= links[s]
-        reach = max_dist[rows]
+        members = rows_of[s] = np.flatnonzero((segs == s).any(1))
+        allowed[members] |= links[s]
+        reach = max_dist[members]
         # column by column: a reduction over the long axis of an (n, 3) array is several times slower
-        box_of[s] = np.array([[(origins[rows, a] - reach).min() for a in range(3)],
-                              [(origins[rows, a] + reach).max() for a in range(3)]])
+        box_of[s] = np.array([[(origins[members, a] - reach).min() for a in range(3)],
+                              [(origins[members, a] + reach).max() for a in range(3)]])
     for k in layers:
         scenes = layer_scenes[k]
         # the rays of every segment whose triangles' box is within those rays' reach
@@ -385,7 +386,7 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
             continue
         scene, ids = found
         scene.commit()  # the BVH build is not tracing
-        o, ray_dir, length = origins[idx], directions[idx], max_dist[idx]
+        o, ray_dir, length = rows(origins, idx), rows(directions, idx), max_dist[idx]
         if farthest:
             # the farthest hit within reach is the first met coming back from the far end
             # (a fold of one layer has two sheets in reach: the vertex goes behind both)
@@ -405,9 +406,9 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
             ok = allowed[idx[live], scenes.face_segment[face]]
             if facing is not None and len(live):
                 u, w = hits.bary[hits.hit, 0], hits.bary[hits.hit, 1]
-                nk = facing[0][k][scenes.faces[face]]
+                nk = rows(facing[0][k], rows(scenes.faces, face))
                 n_hit = (1 - u - w)[:, None] * nk[:, 0] + u[:, None] * nk[:, 1] + w[:, None] * nk[:, 2]
-                ok &= np.einsum("ij,ij->i", n_hit, facing[1][idx[live]]) > 0
+                ok &= np.einsum("ij,ij->i", n_hit, rows(facing[1], idx[live])) > 0
             t_ray = length[live] - t_hit if farthest else t_hit
             better = ok & ((t_ray > best_t[idx[live]]) if farthest else (t_ray < best_t[idx[live]]))
             sel = idx[live[better]]
