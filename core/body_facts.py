@@ -13,6 +13,7 @@ from scipy.spatial import cKDTree
 from .correspondence import closest_point_on_triangles, incident_triangles, local_radius, surface_search, vertex_normals
 from .rays import RayScene
 from .topology import topology_of, vertex_adjacency
+from .vectors import box, norms, rows
 
 _KEEP = 4
 _kept: dict = {}
@@ -185,7 +186,7 @@ def part_junctions(vertices, faces, segment):
     cross = segment[e[:, 0]] != segment[e[:, 1]]
     at = [e[cross, 0], e[cross, 1]]
     other = [segment[e[cross, 1]], segment[e[cross, 0]]]
-    lengths = np.linalg.norm(vertices[e[:, 0]] - vertices[e[:, 1]], axis=1)
+    lengths = norms(rows(vertices, e[:, 0]) - rows(vertices, e[:, 1]))
     reach = 0.5 * float(lengths.mean()) if len(lengths) else 0.0
     # another part's surface that close has a vertex within an edge: its nearest vertex of
     # another part, from a tree per part (points outside a part's box plus that reach skip it)
@@ -193,11 +194,17 @@ def part_junctions(vertices, faces, segment):
     best_d, best_j = np.full(len(vertices), np.inf), np.full(len(vertices), -1)
     members = {p: np.flatnonzero(segment == p) for p in np.unique(segment)}
     for q, theirs in members.items():
-        tree, lo, hi = cKDTree(vertices[theirs]), vertices[theirs].min(0) - bound, vertices[theirs].max(0) + bound
+        their_points = rows(vertices, theirs)
+        tree, (lo, hi) = cKDTree(their_points), box(their_points)
         for p, mine in members.items():
-            mine = mine[((vertices[mine] >= lo) & (vertices[mine] <= hi)).all(1)] if p != q else mine[:0]
+            if p == q:
+                continue
+            inside = np.ones(len(mine), dtype=bool)
+            for k in range(3):  # column by column: all(axis=1) on (n, 3) is slow
+                inside &= (vertices[mine, k] >= lo[k] - bound) & (vertices[mine, k] <= hi[k] + bound)
+            mine = mine[inside]
             if len(mine):
-                d, j = tree.query(vertices[mine], distance_upper_bound=bound, workers=-1)
+                d, j = tree.query(rows(vertices, mine), distance_upper_bound=bound, workers=-1)
                 better = d < best_d[mine]
                 best_d[mine[better]], best_j[mine[better]] = d[better], theirs[j[better]]
     row = np.flatnonzero(np.isfinite(best_d))
@@ -210,7 +217,7 @@ def part_junctions(vertices, faces, segment):
         ok = (segment[faces[tri_id]] == segment[nb[pr]][:, None]).all(1)
         pr, tri_id = pr[ok], tri_id[ok]
         p = vertices[row[pr]]
-        abc = vertices[faces[tri_id]]
+        abc = rows(vertices, rows(faces, tri_id))
         w = closest_point_on_triangles(p, abc[:, 0], abc[:, 1], abc[:, 2])
         dist = np.linalg.norm(p - np.einsum("ij,ijk->ik", w, abc), axis=1)
         close = dist <= reach
