@@ -5,6 +5,7 @@ pays for the body's normals, radii, nearest-point search and part junctions once
 from __future__ import annotations
 
 import hashlib
+import threading
 
 import numpy as np
 from scipy.sparse.csgraph import connected_components
@@ -49,6 +50,7 @@ class BodyFacts:
         self._normal_agreement = None
         self._junctions = {}
         self._prepared = {}
+        self._prepared_lock = threading.Lock()  # a background resolve and a frame's may share a body
 
     @property
     def normals(self) -> np.ndarray:
@@ -135,11 +137,12 @@ class BodyFacts:
     def prepared(self, key):
         """What a resolve on this body found for one garment (its body points, normals, parts),
         kept under ``key`` (the digest of everything it was found from), or None."""
-        found = self._prepared.pop(key, None)
-        if found is None:
-            return None
-        self._prepared[key] = found  # most recent last
-        return found[0]
+        with self._prepared_lock:
+            found = self._prepared.pop(key, None)
+            if found is None:
+                return None
+            self._prepared[key] = found  # most recent last
+            return found[0]
 
     def keep_prepared(self, key, entry) -> None:
         """Keep ``entry`` (a tuple of arrays, BodyCorrespondences and numbers), the least recent
@@ -147,10 +150,11 @@ class BodyFacts:
         size = _nbytes(entry)
         if size > _KEEP_PREPARED_BYTES:
             return
-        self._prepared[key] = (entry, size)
-        while (len(self._prepared) > _KEEP_PREPARED
-               or sum(s for _, s in self._prepared.values()) > _KEEP_PREPARED_BYTES):
-            self._prepared.pop(next(iter(self._prepared)))
+        with self._prepared_lock:
+            self._prepared[key] = (entry, size)
+            while (len(self._prepared) > _KEEP_PREPARED
+                   or sum(s for _, s in self._prepared.values()) > _KEEP_PREPARED_BYTES):
+                self._prepared.pop(next(iter(self._prepared)))
 
 
 def body_facts(vertices, faces) -> BodyFacts:
@@ -174,8 +178,9 @@ def _nbytes(value) -> int:
 def forget_garments() -> None:
     """Drop what was kept of every garment (the bodies' own facts stay): resolving garments
     after it costs what newly draped garments on a known body cost."""
-    for facts in _kept.values():
-        facts._prepared.clear()
+    for facts in list(_kept.values()):
+        with facts._prepared_lock:
+            facts._prepared.clear()
 
 
 def part_junctions(vertices, faces, segment):
