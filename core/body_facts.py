@@ -133,7 +133,6 @@ class BodyFacts:
             self._junctions = {key: part_junctions(self.vertices, self.faces, segment)}
         return self._junctions[key]
 
-
     def prepared(self, key):
         """What a resolve on this body found for one garment (its body points, normals, parts),
         kept under ``key`` (the digest of everything it was found from), or None."""

@@ -368,7 +368,7 @@ def _skirt_hull(v, parts) -> _Hull:
     except (QhullError, ValueError) as err:
         raise ValueError(f"the body parts {list(parts)} have no 3-D extent for a skirt hull: {err}") from None
     if len(_hulls) >= 4:
-        _hulls.pop(next(iter(_hulls)))
+        _hulls.pop(next(iter(_hulls)), None)
     _hulls[key] = _prepared_hull(*_hull_mesh(v, hull))
     return _hulls[key]
 

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+import trimesh
 from scipy.spatial import ConvexHull
 
 from core.correspondence import closest_point_on_triangles
@@ -304,3 +305,15 @@ def test_one_part_probe_distance_overrides_only_that_part():
     np.testing.assert_allclose(mixed, want)
     with pytest.raises(ValueError, match="probe_distance"):
         resolve_layers(body, skirts, body_segments=ids, scheme="S5", probe_distance=np.inf)
+
+
+def test_each_body_gets_its_own_skirt_hull():
+    """The hull is kept per set of body points: a second body with the same part ids gets its own.
+    Over a ball the hull's outward direction is the radial one from that ball's centre."""
+    ball = trimesh.creation.icosphere(subdivisions=3, radius=0.3)
+    point = np.array([[0.5, 0.0, 2.0]])
+    for centre in ((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.0, 0.0, 0.0)):
+        v = np.asarray(ball.vertices) + centre
+        n = hull_normals(v, np.zeros(len(v), dtype=np.int64), (0,), point)
+        want = (point - centre) / np.linalg.norm(point - centre)
+        assert float(n[0] @ want[0]) > 0.999
