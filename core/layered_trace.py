@@ -67,7 +67,10 @@ class LayeredScene:
         all_f = _stack_faces(self.faces, [len(v) for v in self.vertices]) if self.faces else np.zeros((0, 3))
         self.scene = RayScene(all_v, all_f)
         self.face_object = np.repeat(np.arange(len(objects)), counts)
-        self.size = float(np.linalg.norm(np.diff(box(all_v), axis=0))) if len(all_v) else 1.0
+        self.size = 1.0
+        if len(all_v):
+            lo, hi = box(all_v)
+            self.size = float(np.linalg.norm(hi - lo))
         self.eps = 1e-5 * max(self.size, 1e-12)  # above float32 round-off in Embree
         self.object_layer = np.array([-1 if lay is None else lay for lay in self.layers] + [-1])
         # per layer: the objects worn over it, their ray scene (built on first use: plain tracing
