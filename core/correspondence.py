@@ -139,6 +139,7 @@ class SurfaceSearch(NamedTuple):
     centre: np.ndarray
     big: np.ndarray  # triangles far larger than most, asked by every point their box is near
     big_box: np.ndarray  # (2, len(big), 3) float32 boxes about ``centre``
+    exact: np.ndarray  # float64 triangle_table, in place: the pick solved again
 
 
 # A triangle whose longest edge is this many times the median's is "big": a point can be nearest
@@ -160,7 +161,8 @@ def surface_search(vertices, faces, ring_width: int = 8) -> SurfaceSearch:
     longest = np.sqrt(np.max(table[:, 12:14], axis=1, initial=0.0))  # |ab|, |ac| (|bc| < their sum)
     big = np.flatnonzero(longest > _BIG * np.median(longest)) if len(faces) else np.zeros(0, np.int64)
     big_box = np.stack([tri[big].min(1), tri[big].max(1)]).astype(np.float32)
-    return SurfaceSearch(cKDTree(vertices[ids]), ids, incident, table, centre, big, big_box)
+    exact = triangle_table(*(rows(vertices, faces[:, k]) for k in range(3)))
+    return SurfaceSearch(cKDTree(vertices[ids]), ids, incident, table, centre, big, big_box, exact)
 
 
 def _nearer_big(points32, best_d2, search, block: int = 512):
@@ -233,7 +235,7 @@ def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
             better, big = _nearer_big(points32[sl], d[np.arange(len(d)), arg], search)
             pick[better] = big[better]
         tri = rows(vertices, rows(faces, pick))
-        best_w[sl] = closest_point_on_triangles(points[sl], tri[:, 0], tri[:, 1], tri[:, 2])
+        best_w[sl] = closest_on_table(points[sl], rows(search.exact, pick))[1]
         best_t[sl] = pick
         best_d[sl] = norms(points[sl] - np.einsum("ij,ijk->ik", best_w[sl], tri))
 
