@@ -80,18 +80,15 @@ class LayeredScene:
             ids = [i for i, lay in enumerate(self.layers) if lay is not None and lay > layer and len(self.faces[i])]
             if ids:
                 self._cover_ids[layer] = ids
-                corners = [box(self.vertices[i]) for i in ids if len(self.vertices[i])]
-                cover = np.vstack([np.min([lo for lo, _ in corners], axis=0),
-                                   np.max([hi for _, hi in corners], axis=0)])
+                cover = np.vstack(box(*(self.vertices[i] for i in ids)))
                 reach = max((float(self.probes[i].max(initial=0.0)) for i, lay in enumerate(self.layers)
                              if lay == layer), default=0.0) + abs(self.offset)
                 # the layer's own box inside that box grown by reach / sqrt(3) on every side lies
                 # within reach of it everywhere: no hit on the layer needs the per-hit test
                 own = [self.vertices[i] for i, lay in enumerate(self.layers) if lay == layer and len(self.vertices[i])]
                 grown = (cover[0] - reach / np.sqrt(3), cover[1] + reach / np.sqrt(3))
-                mine = [box(v) for v in own]
-                inside = bool(own) and bool((np.min([lo for lo, _ in mine], axis=0) >= grown[0]).all()
-                                            and (np.max([hi for _, hi in mine], axis=0) <= grown[1]).all())
+                lo, hi = box(*own)
+                inside = bool(own) and bool((lo >= grown[0]).all() and (hi <= grown[1]).all())
                 self._cover_box[layer] = (cover, reach, inside)
         # per layer value (-1, a miss or an object outside the layering, last): is anything worn over it?
         top = max([lay for lay in self.layers if lay is not None], default=-1)

@@ -103,15 +103,6 @@ def _mesh_arrays(mesh, name):
     return v, f
 
 
-def _box(*points):
-    """(low, high) corners of the box around all the given (n, 3) point arrays (empty: inverted)."""
-    pts = [p for p in points if len(p)]
-    if not pts:
-        return np.full(3, np.inf), np.full(3, -np.inf)
-    corners = [box(p) for p in pts]
-    return np.min([lo for lo, _ in corners], axis=0), np.max([hi for _, hi in corners], axis=0)
-
-
 def _near_another(boxes, grow):
     """Per box (low, high), whether it grown by ``grow`` meets another of them."""
     boxes = np.array(boxes).reshape(-1, 2, 3)
@@ -162,7 +153,7 @@ def _apart_before_search(garr, traced, body, reach, searchable):
     ids = [i for i in range(len(garr)) if traced[i]]
     ask = [i for i in ids if searchable[i] and len(garr[i][0])]
     # a garment whose own box meets another's is near it whatever its normals (the common case)
-    if len(ids) < 2 or not ask or all(_near_another([_box(garr[i][0]) for i in ids], 0.0)):
+    if len(ids) < 2 or not ask or all(_near_another([box(garr[i][0]) for i in ids], 0.0)):
         return {}
     dist, near = body.search.tree.query(np.vstack([garr[i][0] for i in ask]), k=min(2, body.search.tree.n),
                                         workers=-1)
@@ -174,7 +165,7 @@ def _apart_before_search(garr, traced, body, reach, searchable):
         if i in rows:
             boxes.append(_swept_bound(garr[i][0], near[rows[i]], dist[rows[i], 0], body, reach))
         else:
-            lo, hi = _box(garr[i][0])
+            lo, hi = box(garr[i][0])
             boxes.append((lo - 3 * reach, hi + 3 * reach))
     for i, near_other in zip(ids, _near_another(boxes, 0.0), strict=True):
         traced[i] = near_other
@@ -604,7 +595,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     # l_s plus d, and two moves of at most that, its own or the other's), meets no other
     # garment's box can neither move nor lose a face: it skips every stage, the body search too.
     reach = float(np.nanmax(radius if local_probe else l_seg, initial=0.0)) + d
-    traced = _near_another([_box(v) for v, _ in garr], 3 * reach)
+    traced = _near_another([box(v) for v, _ in garr], 3 * reach)
     # What prepare finds for a garment depends on nothing but these and the garment's own
     # arrays: resolving the same garments again (a setting changed) finds it kept on the body.
     stage_key = digest(body_seg, l_seg, links, np.array([local_probe, one_part, margin]), np.array(repr(scheme)))
@@ -724,7 +715,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     # inward: tuck, then push) and every ray one reach more, in along -n' or out along n', so a
     # garment's triangles and rays stay in the box of v + R n' .. v - 3R n' over its vertices.
     # Garments whose such boxes meet no other's skip the stages too (sleeves at separate heights).
-    swept = _near_another([_box(garr[i][0] + reach * normals[i], garr[i][0] - 3 * reach * normals[i])
+    swept = _near_another([box(garr[i][0] + reach * normals[i], garr[i][0] - 3 * reach * normals[i])
                            for i in searched], 0.0)
     for i, near in zip(searched, swept, strict=True):
         traced[i] = near
