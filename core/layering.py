@@ -36,7 +36,7 @@ def _found_on_first_use(name, doc):
 
 
 class _Prepared(NamedTuple):
-    """What the pre-processing finds for one garment (read-only: kept for the next resolve)."""
+    """What the pre-processing finds for one garment (kept for the next resolve as a read-only copy)."""
 
     corr: BodyCorrespondence
     at_body: np.ndarray  # the body's normal at each vertex's body point
@@ -46,6 +46,14 @@ class _Prepared(NamedTuple):
     probe_len: np.ndarray  # l_s per vertex
     skirt: bool
     far: int  # vertices farther from the body than their probe reaches
+
+
+def _read_only_copy(entry: _Prepared) -> _Prepared:
+    """A copy of ``entry`` to keep: read-only, so nothing handed out or passed in can change it."""
+    c = entry.corr
+    return entry._replace(corr=BodyCorrespondence(frozen(c.triangle), frozen(c.bary), frozen(c.distance)),
+                          **{f: frozen(getattr(entry, f))
+                             for f in ("at_body", "normals", "vseg", "vseg2", "probe_len")})
 
 
 class LayeringResult:
@@ -644,13 +652,14 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         entry = kept(i)
         if entry is None:
             entry = _prepare(i, c)
-            body.keep_prepared(memo_key(i), entry)
+            body.keep_prepared(memo_key(i), _read_only_copy(entry))  # the result hands out entry's own
+            corr[i], normals[i], vseg[i] = entry.corr, entry.normals, entry.vseg
         else:
             reused.append(i)
-        # the caller's own copies of what the result hands out: the kept ones must not change
-        kc = entry.corr
-        corr[i] = BodyCorrespondence(kc.triangle.copy(), kc.bary.copy(), kc.distance.copy())
-        normals[i], vseg[i] = entry.normals.copy(), entry.vseg.copy()
+            # the caller's own copies of what the result hands out: the kept ones must not change
+            kc = entry.corr
+            corr[i] = BodyCorrespondence(kc.triangle.copy(), kc.bary.copy(), kc.distance.copy())
+            normals[i], vseg[i] = entry.normals.copy(), entry.vseg.copy()
         at_body[i], vseg2[i], probe_len[i] = entry.at_body, entry.vseg2, entry.probe_len
         if entry.skirt:
             skirts.append(i)
@@ -697,9 +706,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         if len(junctions[0]) and g_segments_in[i] is None and len(v):
             border = _border_segment(v, c.distance, s, junctions, margin)
         far = int((c.distance > lv).sum()) if len(v) else 0
-        kept_corr = BodyCorrespondence(*(frozen(a) for a in (c.triangle, c.bary, c.distance)))
-        return _Prepared(kept_corr, frozen(at_body), frozen(n), frozen(s), frozen(np.column_stack([s, border])),
-                         frozen(lv), skirt, far)
+        return _Prepared(c, at_body, n, s, np.column_stack([s, border]), lv, skirt, far)
 
     def complete():
         """The entries of the garments not searched, for the result's first reader."""
