@@ -95,6 +95,7 @@ class LayeredScene:
         self._has_cover = np.zeros(top + 2, bool)
         self._has_cover[list(self._cover_ids)] = True
         self._uncovered = None  # built on the first layered shadow ray
+        self._past_pokes = {}  # per layer a shadow ray leaves: _poke_bounds
 
     def split(self, face):
         """Global face ids -> (object, face within it)."""
@@ -146,14 +147,18 @@ class LayeredScene:
         # Anything nothing is worn over (the outermost layer, props) on the way is shown, so it
         # blocks: one occlusion ray settles the rays a stack of covered layers would otherwise
         # send round the layered loop.
+        own = self.object_layer[np.full(len(out), -1) if leaving is None else np.asarray(leaving)][ask]
         uncovered = self._uncovered_scene(len(ask))
         if uncovered is not None:
-            settled = uncovered.occluded(o, d, max_dist=dist)
-            keep = ~settled
+            keep = ~uncovered.occluded(o, d, max_dist=dist)
+            if keep.any():
+                # of the rest, those with nothing on the way but poke-throughs are not blocked
+                free = self._clear_past_pokes(o[keep], d[keep], dist[keep], own[keep])
+                out[ask[keep][free]] = False
+                keep[keep] = ~free
             if not keep.any():
                 return out
-            ask, o, d, dist = ask[keep], o[keep], d[keep], dist[keep]
-        own = self.object_layer[np.full(len(out), -1) if leaving is None else np.asarray(leaving)][ask]
+            ask, o, d, dist, own = ask[keep], o[keep], d[keep], dist[keep], own[keep]
         travelled = np.zeros(len(ask))
         # rays whose first hit needs the layered test, from every round: traced on in one batch
         # at the end (the layered loop's rounds cost as much for a few rays as for many)
@@ -189,6 +194,37 @@ class LayeredScene:
             known = RayHits(t, face, bary, self.scene.normals_of)
             out[rays] = self.first_visible(o, d, first=known).t < dist
         return out
+
+    def _clear_past_pokes(self, o, d, dist, own):
+        """Which shadow rays, that nothing uncovered blocks, leaving a layer ``own`` meet nothing
+        but poke-throughs: no covered layer as high as their own on the way, and nothing past
+        the shortest probe distance of the layers under theirs (any of those met nearer is a
+        poke-through). Two occlusion rays settle most rays the rounds would step past each
+        poke-through with a closest hit at a time."""
+        free = np.zeros(len(o), bool)
+        for layer in np.unique(own):
+            if layer not in self._past_pokes:
+                self._past_pokes[layer] = self._poke_bounds(int(layer))
+            higher, shortest = self._past_pokes[layer]
+            if shortest is None:  # nothing under the layer: every hit is a blocker or a covered layer
+                continue
+            go = np.flatnonzero(own == layer)
+            if higher is not None:
+                go = go[~higher.occluded(o[go], d[go], max_dist=dist[go])]
+            free[go] = ~self.scene.occluded(o[go], d[go], max_dist=dist[go], min_dist=shortest)
+        return free
+
+    def _poke_bounds(self, layer):
+        """(ray scene of the covered layers from ``layer`` up, or None when there are none; the
+        shortest probe distance of the layers under it, or None when there are none)."""
+        under = [i for i, lay in enumerate(self.layers) if lay is not None and 0 <= lay < layer and len(self.faces[i])]
+        if not under:
+            return None, None
+        higher = [i for i, lay in enumerate(self.layers)
+                  if lay is not None and lay >= layer and self._has_cover[lay] and len(self.faces[i])]
+        # a probe's l_s is blended from its triangle's corners: never shorter than the least of them
+        shortest = min(float(self.probes[i][self.faces[i]].min()) for i in under)
+        return (self._scene_of(higher) if higher else None), shortest
 
     def _scene_of(self, ids):
         """The combined scene's part over the given objects (hits name the combined scene's
