@@ -29,6 +29,12 @@ from . import mesh_io
 from .layer_resolve import GLOBAL_NORMAL_ATTRIBUTE, body_parts, probe_distances
 
 FIXED_PASS = "DeformRT Fixed"  # 1 where a probe ray changed what the pixel shows
+# A frame is traced in bands of about this many pixels: each shows as soon as it is done, Esc
+# stops between them. Each band pays the layered loop's rounds of a few rays and the shadow rays'
+# thread hand-offs again (Fig 4.12 at 800x800: three bands of 256k pixels took 40-60 ms more
+# than one), and a band's working arrays take about 300 bytes a pixel: 1M pixels keeps a band
+# near 300 MB and renders 800x800 in one (Cycles' default tile is 2048 x 2048).
+BAND_PIXELS = 1 << 20
 BACKGROUND_DEPTH = 1e10  # what Cycles writes where no surface is
 
 
@@ -355,9 +361,7 @@ class DEFORMRT_RE_layered(bpy.types.RenderEngine):
             self.end_result(self.begin_result(0, 0, w, h))
             return
         pass_index = np.array([*tracer.pass_index, 0], np.float32)
-        # bands of about 256k pixels: each shows as soon as it is done, Esc stops between them
-        # (smaller bands cost the layered loop's few-ray rounds once per band: +20% at 64k)
-        band = max(1, min(h, 262144 // max(w, 1)))
+        band = max(1, min(h, BAND_PIXELS // max(w, 1)))
         rays = fixed = 0
         for top in range(0, h, band):
             bottom = min(h, top + band)

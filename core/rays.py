@@ -31,7 +31,7 @@ except ImportError:  # pragma: no cover - exercised by the fallback test via mon
 __all__ = ["HAVE_EMBREE", "RayHits", "RayScene", "step_past_hit", "thread_count"]
 
 # Below this many rays a thread hand-off costs more than it saves.
-_MIN_RAYS_PER_CHUNK = 16384
+_MIN_RAYS_PER_CHUNK = 8192
 _device = None
 _warned_fallback = False
 

@@ -109,7 +109,7 @@ def test_coincident_garments_show_the_outer_layer_only(studio, clean_scene, tmp_
     np.testing.assert_array_equal(_render(studio, scene, tmp_path), px)
 
 
-def test_depth_object_index_and_fixed_passes(studio, clean_scene, tmp_path):
+def test_depth_object_index_and_fixed_passes(extension, studio, clean_scene, tmp_path, monkeypatch):
     """A floor 5 m below the camera (depth 5 everywhere: Depth is along the camera's axis) and a
     sphere on it; the sphere's pass index where it shows; the fixed pass where a covered shirt
     would have shown."""
@@ -123,8 +123,15 @@ def test_depth_object_index_and_fixed_passes(studio, clean_scene, tmp_path):
     bpy.ops.mesh.primitive_uv_sphere_add(radius=0.5, location=(0, 0, 0.5), segments=64, ring_count=32)
     ball = bpy.context.active_object
     ball.pass_index = 7
-    # 1024 x 300 renders in two bands (256 rows, then 44): both must land where they belong
+    # 1024 x 300 in bands of 256 rows: two (256 rows, then 44), both must land where they belong
+    engine = importlib.import_module(f"{extension.__name__}.addon.render_engine")
+    monkeypatch.setattr(engine, "BAND_PIXELS", 1024 * 256)
+    bands = []
+    monkeypatch.setattr(engine.FrameTracer, "rows", lambda self, a, b, rows=engine.FrameTracer.rows: (
+        bands.append((a, b)), rows(self, a, b))[1])
     px = _render(studio, scene, tmp_path, size=(1024, 300), passes=("Depth", "IndexOB", "DeformRT Fixed"))
+    assert bands == [(0, 256), (256, 300)]
+    monkeypatch.undo()
     on_floor = px["IndexOB"] == 3
     assert on_floor.mean() > 0.6 and (px["IndexOB"] == 7).sum() > 20
     np.testing.assert_allclose(px["Depth"][on_floor], 5.0, rtol=1e-5)
