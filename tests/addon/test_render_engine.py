@@ -330,6 +330,14 @@ def test_probe_distance_follows_the_body_parts_and_their_overrides(extension):
     np.testing.assert_array_equal(probes[2], 0.02)
     with pytest.raises(ValueError, match="need the body's parts"):
         engine.body_probes(objects, [0, 1, 2], given=np.array([np.nan, 0.02]))
+    # each garment's nearest body vertices are kept for the next frame, by content: the shell
+    # moved in place onto the big ball takes the big ball's radius; one part for the whole body,
+    # the median radius of both balls
+    shell_v -= shift
+    np.testing.assert_allclose(engine.body_probes(objects, [0, 1, 2], parts=parts)[2], 0.1, rtol=0.01)
+    one = engine.body_probes(objects, [0, 1, 2], parts=np.zeros_like(parts))
+    np.testing.assert_array_equal(one[2], np.median(one[0]))
+    assert 0.04 < one[2][0] < 0.1
 
 
 def test_a_skirt_probes_as_far_as_the_resolve_takes_it_and_its_override_counts(extension):
