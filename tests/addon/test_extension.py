@@ -122,6 +122,55 @@ def test_mesh_io_round_trip_in_world_space(extension, clean_scene):
     np.testing.assert_allclose(local.vertices, v, atol=1e-6)
 
 
+@pytest.mark.parametrize("shape", ["triangles", "mixed"])
+def test_mesh_io_reads_what_blender_says_triangle_by_triangle(extension, clean_scene, shape):
+    """Positions, loop triangles, their faces, UVs and corner normals read through attributes
+    and whole arrays are what Blender's own per-item properties give: on a mesh of triangles
+    only (their corners taken face by face without reading them) and on one of quads, an ngon
+    and triangles, flat-shaded in part, where Blender chooses the split."""
+    mesh_io = importlib.import_module(MODULE + ".addon.mesh_io")
+    if shape == "triangles":
+        bpy.ops.mesh.primitive_uv_sphere_add(segments=24, ring_count=12)
+        obj = bpy.context.active_object
+        obj.modifiers.new("Tri", "TRIANGULATE")
+    else:
+        # a bent 5 x 5 grid of quads, a hexagon and a triangle
+        x, y = np.meshgrid(np.arange(6.0), np.arange(6.0))
+        grid = np.column_stack([x.ravel(), y.ravel(), 0.1 * x.ravel() ** 2])
+        quads = [(6 * j + i, 6 * j + i + 1, 6 * j + i + 7, 6 * j + i + 6) for j in range(5) for i in range(5)]
+        angle = np.arange(6) * np.pi / 3
+        hexagon = np.column_stack([8 + np.cos(angle), np.sin(angle), 0.3 * np.sin(2 * angle)])
+        verts = np.vstack([grid, hexagon, [[10.0, 0, 0], [11, 0, 0], [10, 1, 0]]])
+        faces = [*quads, tuple(range(36, 42)), (42, 43, 44)]
+        data = bpy.data.meshes.new("Mixed")
+        data.from_pydata(verts.tolist(), [], faces)
+        data.uv_layers.new()
+        obj = bpy.data.objects.new("Mixed", data)
+        clean_scene.collection.objects.link(obj)
+        data.polygons[5].use_smooth = True  # the rest flat: corner normals differ from vertex normals
+    obj.modifiers.new("Twist", "SIMPLE_DEFORM").deform_axis = "Z"
+    obj.location = (0.5, -1.0, 2.0)
+    obj.rotation_euler = (0.3, 0.2, 0.1)
+    got = mesh_io.read_mesh(obj, slots=True, shading=True, uvs=True)
+    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    mesh = evaluated.to_mesh()
+    mesh.calc_loop_triangles()
+    sizes = {len(p.vertices) for p in mesh.polygons}
+    assert sizes == ({3} if shape == "triangles" else {3, 4, 6})
+    m = np.array(obj.matrix_world)
+    co = np.array([v.co[:] for v in mesh.vertices])
+    np.testing.assert_allclose(got.vertices, co @ m[:3, :3].T + m[:3, 3], atol=1e-6)
+    np.testing.assert_array_equal(got.triangles, [t.vertices[:] for t in mesh.loop_triangles])
+    np.testing.assert_array_equal(got.triangle_polygon, [t.polygon_index for t in mesh.loop_triangles])
+    uv = mesh.uv_layers.active.data
+    np.testing.assert_allclose(got.triangle_uv, [[uv[k].uv[:] for k in t.loops] for t in mesh.loop_triangles],
+                               atol=1e-7)
+    normals = [[mesh.corner_normals[k].vector[:] for k in t.loops] for t in mesh.loop_triangles]
+    np.testing.assert_allclose(got.triangle_normals, mesh_io.world_normals(
+        np.reshape(normals, (-1, 3)), m).reshape(-1, 3, 3), atol=1e-6)
+    evaluated.to_mesh_clear()
+
+
 def test_mesh_io_reads_evaluated_modifiers(extension, clean_scene):
     bpy.ops.mesh.primitive_cube_add()
     cube = bpy.context.active_object
