@@ -11,18 +11,18 @@ Inputs are never modified; every stage works on copies.
 from __future__ import annotations
 
 import time
-from typing import NamedTuple
 
 import numpy as np
 import trimesh
 from scipy.spatial import cKDTree
 
-from .body_facts import body_facts, digest, frozen
+from .body_facts import body_facts
 from .body_guard import back_off
-from .correspondence import BodyCorrespondence, closest_on_table, nearest_on_surface, triangle_table
+from .correspondence import BodyCorrespondence
+from .garment_prep import GarmentPrep
 from .hidden_faces import crossing_faces
 from .rays import RayScene, step_past_hit
-from .segmentation import get_scheme, hull_normals, is_skirt, skirt_segments
+from .segmentation import get_scheme
 from .topology import ring_distance, topology_of
 from .vectors import box, norms, rows
 
@@ -33,27 +33,6 @@ def _found_on_first_use(name, doc):
         self._completed()
         return getattr(self, name)
     return property(get, doc=doc)
-
-
-class _Prepared(NamedTuple):
-    """What the pre-processing finds for one garment (kept for the next resolve as a read-only copy)."""
-
-    corr: BodyCorrespondence
-    at_body: np.ndarray  # the body's normal at each vertex's body point
-    normals: np.ndarray  # the global normals n'
-    vseg: np.ndarray  # segment id per vertex
-    vseg2: np.ndarray  # (n, 2) segment and the part across a nearby junction (-1: none)
-    probe_len: np.ndarray  # l_s per vertex
-    skirt: bool
-    far: int  # vertices farther from the body than their probe reaches
-
-
-def _read_only_copy(entry: _Prepared) -> _Prepared:
-    """A copy of ``entry`` to keep: read-only, so nothing handed out or passed in can change it."""
-    c = entry.corr
-    return entry._replace(corr=BodyCorrespondence(frozen(c.triangle), frozen(c.bary), frozen(c.distance)),
-                          **{f: frozen(getattr(entry, f))
-                             for f in ("at_body", "normals", "vseg", "vseg2", "probe_len")})
 
 
 class LayeringResult:
@@ -109,104 +88,6 @@ def _mesh_arrays(mesh, name):
     if len(f) and (f.min() < 0 or f.max() >= len(v)):
         raise ValueError(f"{name} has faces that refer to vertices outside 0..{len(v) - 1}")
     return v, f
-
-
-def _near_another(boxes, grow):
-    """Per box (low, high), whether it grown by ``grow`` meets another of them."""
-    boxes = np.array(boxes).reshape(-1, 2, 3)
-    if not len(boxes):
-        return []
-    lo, hi = boxes[:, 0] - grow, boxes[:, 1] + grow
-    meet = ((lo[:, None] <= boxes[None, :, 1]) & (hi[:, None] >= boxes[None, :, 0])).all(2)
-    np.fill_diagonal(meet, False)
-    return [bool(x) for x in meet.any(1)]
-
-
-def _swept_bound(v, near, nearest_distance, body, reach):
-    """A box holding v + s n' (s from -3 reach to reach) for each of the points ``v`` and the
-    global normal n' its body search will give it, before searching. The search picks a
-    triangle around the point's nearest body vertices (``near``, the tree points) or a larger
-    one nearer than the nearest vertex (``nearest_distance``), and n' is a blend of that
-    triangle's corner normals made unit: the box follows the normals of all those triangles."""
-    search = body.search
-    picked = np.zeros(len(body.faces) + 1, dtype=bool)  # one more: the -1 padding lands there
-    picked[search.incident[near].ravel()] = True
-    lo, hi = box(v)
-    if len(search.big):
-        picked[_big_in_reach(v, nearest_distance, body)] = True
-    tri = np.flatnonzero(picked[:-1])
-    if not len(tri):
-        return lo - 3 * reach, hi + 3 * reach
-    corners = body.normals[body.faces[tri].ravel()]
-    # a blend of unit vectors whose pairwise dot products are at least c is at least sqrt(c)
-    # long, and each of its components lies between the corners' (and 0, for a blend of length 0)
-    shortest = float(np.sqrt(max(float(body.normal_agreement[tri].min()), 0.0)))
-    low, high = np.minimum(corners.min(0), 0.0), np.maximum(corners.max(0), 0.0)
-    if shortest > 0:
-        low, high = low / shortest, high / shortest
-    else:
-        low, high = np.full(3, -1.0), np.full(3, 1.0)
-    # float64 barycentrics may stray past [0, 1] by round-off
-    low, high = np.clip(low - 1e-9, -1.0, 1.0), np.clip(high + 1e-9, -1.0, 1.0)
-    ends = np.array([reach * low, reach * high, -3 * reach * low, -3 * reach * high])
-    return lo + ends.min(0), hi + ends.max(0)
-
-
-def _apart_before_search(garr, traced, body, reach, searchable):
-    """Before any body search, clears ``traced`` (in place) for the garments whose box of
-    v + R n' .. v - 3R n' (R = ``reach``: every stage's moves and rays stay in it, see
-    resolve_layers), bounded by _swept_bound, meets no other's. A garment not ``searchable``
-    (its correspondence or normals given) keeps the box of v grown by 3R. Returns the nearest
-    body vertices asked on the way, per garment, for its search."""
-    ids = [i for i in range(len(garr)) if traced[i]]
-    ask = [i for i in ids if searchable[i] and len(garr[i][0])]
-    # a garment whose own box meets another's is near it whatever its normals (the common case)
-    if len(ids) < 2 or not ask or all(_near_another([box(garr[i][0]) for i in ids], 0.0)):
-        return {}
-    dist, near = body.search.tree.query(np.vstack([garr[i][0] for i in ask]), k=min(2, body.search.tree.n),
-                                        workers=-1)
-    dist, near = np.reshape(dist, (len(near), -1)), np.reshape(near, (len(near), -1))
-    start = np.cumsum([0] + [len(garr[i][0]) for i in ask])
-    rows = {i: slice(a, b) for i, a, b in zip(ask, start[:-1], start[1:], strict=True)}
-    boxes = []
-    for i in ids:
-        if i in rows:
-            boxes.append(_swept_bound(garr[i][0], near[rows[i]], dist[rows[i], 0], body, reach))
-        else:
-            lo, hi = box(garr[i][0])
-            boxes.append((lo - 3 * reach, hi + 3 * reach))
-    for i, near_other in zip(ids, _near_another(boxes, 0.0), strict=True):
-        traced[i] = near_other
-    return {i: near[r] for i, r in rows.items()}
-
-
-def _big_in_reach(points, nearest_distance, body, budget=1_000_000):
-    """The body's large triangles (SurfaceSearch.big) that some point is nearer to than to its
-    nearest body vertex: the only ones the search can pick over the triangles around that vertex."""
-    search = body.search
-    size = float(np.ptp(body.vertices, 0).max())
-    reach = nearest_distance * (1 + 1e-5) + 1e-5 * size  # float32 boxes and distances in the search
-    big_lo = search.big_box[0].astype(np.float64) + search.centre
-    big_hi = search.big_box[1].astype(np.float64) + search.centre
-    lo, hi = points.min(0) - reach.max(initial=0.0), points.max(0) + reach.max(initial=0.0)
-    near = np.flatnonzero(((big_lo <= hi) & (big_hi >= lo)).all(1))
-    if not len(near):
-        return near
-    # the points whose box distance to some of these comes within their reach, pair by pair
-    box_lo, box_hi = big_lo[near].min(0), big_hi[near].max(0)
-    gap = norms(np.maximum(box_lo - points, 0) + np.maximum(points - box_hi, 0))
-    ask = np.flatnonzero(gap <= reach)
-    if len(ask) * len(near) > budget:  # too many pairs to weigh: every one of them may be picked
-        return search.big[near]
-    p, r = points[ask], reach[ask]
-    g = np.maximum(big_lo[near][None] - p[:, None], 0) + np.maximum(p[:, None] - big_hi[near][None], 0)
-    pi, ti = np.nonzero(np.einsum("ijk,ijk->ij", g, g) <= (r * r)[:, None])
-    if not len(pi):
-        return near[:0]
-    faces = body.faces[search.big[near[ti]]]
-    a, b, c = (rows(body.vertices, faces[:, k]) for k in range(3))
-    d2 = closest_on_table(p[pi], triangle_table(a, b, c), bary=False)
-    return np.unique(search.big[near[ti[d2 <= r[pi] ** 2]]])
 
 
 def _per_garment(value, n, name):
@@ -423,25 +304,6 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
     return best_t, best_layer, best_face, rays, trace_s
 
 
-def _border_segment(points, distance, primary, junctions, margin):
-    """Per point, the other part at the nearest junction of its own part within sqrt(2) times
-    its body distance plus ``margin``, else -1. Near a border between parts, a garment's triangles and
-    the vertices of the layer below take different parts by a hair; their rays look in both."""
-    out = np.full(len(points), -1)
-    pos, own, other = junctions
-    for part in np.unique(primary):
-        mine = np.flatnonzero(primary == part)
-        at = own == part
-        if not at.any():
-            continue
-        # within 45 degrees of the junction as seen from the body: sqrt(2) times the distance
-        reach = np.sqrt(2.0) * distance[mine] + margin
-        d, j = cKDTree(pos[at]).query(points[mine], distance_upper_bound=float(reach.max()), workers=-1)
-        ok = d <= reach
-        out[mine[ok]] = other[at][j[ok]]
-    return out
-
-
 def _spread_from_hits(vertices, faces, topology, hit_points, amplitude, seed_vertices, falloff=None):
     """Per-vertex inward move near a higher layer's hem (Fig. 4.9-4.10).
 
@@ -568,7 +430,6 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
 
     # --- pre-processing: correspondence, global normals, segments, probe distance
     t0 = time.perf_counter()
-    body_normals = body.normals
     probe = params.get("probe_distance")
     given = None if probe is None else np.broadcast_to(np.asarray(probe, dtype=np.float64), (n_seg,)).copy()
     if given is not None and (np.isinf(given).any() or (given < 0).any()):
@@ -596,137 +457,10 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         s = g_segments_in[i]
         if s is not None and (np.shape(s) != (len(v),) or (len(s) and (np.min(s) < 0 or np.max(s) >= n_seg))):
             raise ValueError(f"garment_segments[{i}] must be {len(v)} ids in 0..{n_seg - 1}")
-    corr, normals, vseg, vseg2, probe_len = ([None] * n_g for _ in range(5))
-    at_body = [None] * n_g  # the body's normal at each vertex's body point (the global normal unless overridden)
-    skirts = []
-    # A garment whose box, grown by three times what a stage can reach (a probe or hem ray's
-    # l_s plus d, and two moves of at most that, its own or the other's), meets no other
-    # garment's box can neither move nor lose a face: it skips every stage, the body search too.
-    reach = float(np.nanmax(radius if local_probe else l_seg, initial=0.0)) + d
-    traced = _near_another([box(v) for v, _ in garr], 3 * reach)
-    # What prepare finds for a garment depends on nothing but these and the garment's own
-    # arrays: resolving the same garments again (a setting changed) finds it kept on the body.
-    stage_key = digest(body_seg, l_seg, links, np.array([local_probe, one_part, margin]), np.array(repr(scheme)))
-    memo_keys, reused = {}, []
-
-    def memo_key(i):
-        if i not in memo_keys:
-            given = (g_normals_in[i], g_segments_in[i], g_corr_in[i])
-            c = g_corr_in[i]
-            memo_keys[i] = digest(np.frombuffer(stage_key, np.uint8), *garr[i],
-                                  np.array([x is None for x in given]),
-                                  *(np.asarray(x) for x in given[:2] if x is not None),
-                                  *((c.triangle, c.bary) if c is not None else ()))
-        return memo_keys[i]
-
-    held = {}
-
-    def kept(i):
-        """Garment i's kept pre-processing, asked once: keeping another's may drop it after."""
-        if i not in held:
-            held[i] = body.prepared(memo_key(i))
-        return held[i]
-
-    # Closer, before the body search: garments whose reach, bounded by the normals of the body
-    # near them, meets no other's skip the search too (sleeves at separate heights). Not with a
-    # scheme: a skirt takes its normals off a hull instead. A kept garment's normals are known:
-    # the box from them decides after, as it does for the searched.
-    searchable = [g_corr_in[i] is None and g_normals_in[i] is None and not (traced[i] and kept(i) is not None)
-                  for i in range(n_g)]
-    # garment -> its vertices' nearest body vertices, asked there for the search
-    nearest = _apart_before_search(garr, traced, body, reach, searchable) if scheme is None else {}
-
-    def search(ids):
-        """One body search for all of the garments ``ids`` (the body's kd-tree and fans made once)."""
-        if not ids:
-            return {}
-        known = np.vstack([nearest[i] for i in ids]) if all(i in nearest for i in ids) else None
-        whole = nearest_on_surface(np.vstack([garr[i][0] for i in ids]), bv, bf, search=body.search, near=known)
-        start = np.cumsum([0] + [len(garr[i][0]) for i in ids])
-        return {i: BodyCorrespondence(whole.triangle[a:b], whole.bary[a:b], whole.distance[a:b])
-                for i, a, b in zip(ids, start[:-1], start[1:], strict=True)}
-
-    def prepare(i, c):
-        """Garment i's correspondence c (None: searched), global normals, segments and probe
-        lengths; returns its vertices farther from the body than their probe reaches."""
-        entry = kept(i)
-        if entry is None:
-            entry = _prepare(i, c)
-            body.keep_prepared(memo_key(i), _read_only_copy(entry))  # the result hands out entry's own
-            corr[i], normals[i], vseg[i] = entry.corr, entry.normals, entry.vseg
-        else:
-            reused.append(i)
-            # the caller's own copies of what the result hands out: the kept ones must not change
-            kc = entry.corr
-            corr[i] = BodyCorrespondence(kc.triangle.copy(), kc.bary.copy(), kc.distance.copy())
-            normals[i], vseg[i] = entry.normals.copy(), entry.vseg.copy()
-        at_body[i], vseg2[i], probe_len[i] = entry.at_body, entry.vseg2, entry.probe_len
-        if entry.skirt:
-            skirts.append(i)
-        return entry.far
-
-    def _prepare(i, c):
-        v, f = garr[i]
-        if g_corr_in[i] is not None:
-            c = g_corr_in[i]
-            # the same body point, where the body is now (posed, or the cloth has moved)
-            c = BodyCorrespondence(c.triangle, c.bary, norms(v - c.points(bv, bf)))
-        at_body = c.normals(body_normals, bf) if len(v) else np.zeros((0, 3))
-        if g_normals_in[i] is not None:
-            n = np.asarray(g_normals_in[i], dtype=np.float64)
-            n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
-        else:
-            n = at_body
-        skirt = False
-        if g_segments_in[i] is not None:
-            s = np.asarray(g_segments_in[i], dtype=np.int64)
-            skirt = scheme is not None and bool((s == scheme.skirt).any())
-        elif len(v):
-            corner = bf[c.triangle, np.argmax(c.bary, axis=1)]
-            s = body_seg[corner]
-            if scheme is not None and is_skirt(f, s, scheme, vertices=v, body_vertices=bv, body_segments=body_seg):
-                s = skirt_segments(s, scheme)
-                skirt = True
-        else:
-            s = np.zeros(0, dtype=np.int64)
-        if skirt:
-            # the hull's normals for the whole skirt (torso points too: under the torso's
-            # bottom its normals point down, not out of the skirt)
-            on_skirt = np.isin(s, (scheme.skirt, scheme.torso))
-            if g_normals_in[i] is None and on_skirt.any():
-                n = n.copy()  # at_body keeps the body's own
-                n[on_skirt] = hull_normals(bv, body_seg, (scheme.torso, *scheme.skirt_spans), v[on_skirt])
-        if local_probe and len(v):
-            lv = np.einsum("ij,ij->i", c.bary, radius[bf[c.triangle]])
-        else:
-            lv = l_seg[s]
-        if one_part:
-            s = np.zeros_like(s)
-        border = np.full(len(v), -1)
-        if len(junctions[0]) and g_segments_in[i] is None and len(v):
-            border = _border_segment(v, c.distance, s, junctions, margin)
-        far = int((c.distance > lv).sum()) if len(v) else 0
-        return _Prepared(c, at_body, n, s, np.column_stack([s, border]), lv, skirt, far)
-
-    def complete():
-        """The entries of the garments not searched, for the result's first reader."""
-        rest = [i for i in range(n_g) if corr[i] is None]
-        found = search([i for i in rest if g_corr_in[i] is None and kept(i) is None])
-        for i in rest:
-            prepare(i, found.get(i))
-
-    searched = [i for i in range(n_g) if traced[i]]
-    found = search([i for i in searched if g_corr_in[i] is None and kept(i) is None])
-    far = sum(prepare(i, found.get(i)) for i in searched)
-    # With the normals known, closer: every move goes along a vertex's n' (at most two reaches
-    # inward: tuck, then push) and every ray one reach more, in along -n' or out along n', so a
-    # garment's triangles and rays stay in the box of v + R n' .. v - 3R n' over its vertices.
-    # Garments whose such boxes meet no other's skip the stages too (sleeves at separate heights).
-    swept = _near_another([box(garr[i][0] + reach * normals[i], garr[i][0] - 3 * reach * normals[i])
-                           for i in searched], 0.0)
-    for i, near in zip(searched, swept, strict=True):
-        traced[i] = near
-    active = [i for i in searched if traced[i]]
+    prep = GarmentPrep(body, garr, body_seg, scheme, links, one_part, l_seg, radius, local_probe, junctions, margin,
+                       d, g_normals_in, g_segments_in, g_corr_in)
+    corr, normals, vseg, vseg2, probe_len = prep.corr, prep.normals, prep.vseg, prep.vseg2, prep.probe_len
+    at_body, traced, active = prep.at_body, prep.traced, prep.active
     timings["correspondence_s"] = time.perf_counter() - t0
 
     verts = [v.copy() for v, _ in garr]
@@ -887,7 +621,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         "segments": n_seg,
         "segments_traced": 1 if one_part else n_seg,
         "scheme": scheme.name if scheme is not None else None,
-        "skirts": list(skirts),
+        "skirts": list(prep.skirts),
         "offset": d,
         "probe_distance": l_seg.tolist(),
         "probe_distance_per_vertex": bool(local_probe),
@@ -900,14 +634,14 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         "vertices_held_by_body": floor_clamped,
         "vertices_kept_out_of_body": backed_off,
         "faces_removed": int(sum(r.sum() for r in removed)),
-        "vertices_far_from_body": far,
+        "vertices_far_from_body": prep.far,
         "vertices_on_part_borders": int(sum((vseg2[i][:, 1] >= 0).sum() for i in active)),
         "scenes_built": sum(scenes[i].built for i in active),
         "garments_traced": len(active),
-        "garments_kept": len(reused),  # pre-processing found in an earlier resolve of the same garment
+        "garments_kept": len(prep.reused),  # pre-processing found in an earlier resolve of the same garment
     }
-    return LayeringResult(out, moved, removed, traced, normals, corr, vseg, skirts, stats,
-                          complete if len(active) < n_g else None)
+    return LayeringResult(out, moved, removed, traced, normals, corr, vseg, prep.skirts, stats,
+                          prep.complete if len(active) < n_g else None)
 
 
 __all__ = ["BodyCorrespondence", "LayeringResult", "resolve_layers"]

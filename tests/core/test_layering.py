@@ -330,7 +330,7 @@ def test_a_garment_near_no_other_skips_every_stage_and_its_normals_are_found_whe
 
 @pytest.mark.parametrize("scale", [1.0, 1e-3, 1e3])
 def test_sleeves_at_other_heights_skip_the_stages_and_change_nothing(monkeypatch, scale):
-    import core.layering as layering
+    import core.garment_prep as prep
     from sample_scenes.shapes import tube
 
     body = body_tube(height=0.8)
@@ -340,8 +340,8 @@ def test_sleeves_at_other_heights_skip_the_stages_and_change_nothing(monkeypatch
     body, shirt, cuff, jacket = (mesh(m.vertices * scale, m.faces) for m in (body, shirt, cuff, jacket))
     garments = [shirt, cuff, jacket]
     searched = []
-    search = layering.nearest_on_surface
-    monkeypatch.setattr(layering, "nearest_on_surface",
+    search = prep.nearest_on_surface
+    monkeypatch.setattr(prep, "nearest_on_surface",
                         lambda p, *a, **k: searched.append(len(p)) or search(p, *a, **k))
     res = resolve_layers(body, garments)
     # their boxes are within three probe reaches (the body's 15 cm radius), but every move and
@@ -350,8 +350,8 @@ def test_sleeves_at_other_heights_skip_the_stages_and_change_nothing(monkeypatch
     assert res.traced == [True, False, True] and res.stats["garments_traced"] == 2
     assert res.found()[1][1] is None and searched == [len(shirt.vertices) + len(jacket.vertices)]
     # the same as tracing every garment through every stage
-    monkeypatch.setattr(layering, "_near_another", lambda garr, grow: [True] * len(garr))
-    every = layering.resolve_layers(body, garments)
+    monkeypatch.setattr(prep, "near_another", lambda garr, grow: [True] * len(garr))
+    every = resolve_layers(body, garments)
     assert every.traced == [True, True, True]
     for a, b in zip(res.moved, every.moved, strict=True):
         np.testing.assert_array_equal(a, b)
@@ -367,7 +367,7 @@ def test_sleeves_at_other_heights_skip_the_stages_and_change_nothing(monkeypatch
 def test_the_bound_before_the_search_holds_every_normal_the_search_gives(body_kind):
     """Points near sharp edges, caps of long fan triangles and a floor of two triangles:
     v + R n' and v - 3R n' stay in the box _swept_bound gives, for the n' nearest_on_surface finds."""
-    import core.layering as layering
+    import core.garment_prep as prep
     from core.body_facts import body_facts
     from core.correspondence import nearest_on_surface
 
@@ -403,7 +403,7 @@ def test_the_bound_before_the_search_holds_every_normal_the_search_gives(body_ki
                 for _ in range(10)]
     for v in patches:
         dist, near = facts.search.tree.query(v, k=2)
-        box_lo, box_hi = layering._swept_bound(v, near, dist[:, 0], facts, reach)
+        box_lo, box_hi = prep._swept_bound(v, near, dist[:, 0], facts, reach)
         found = nearest_on_surface(v, facts.vertices, facts.faces, search=facts.search)
         n = found.normals(facts.normals, facts.faces)
         for end in (v + reach * n, v - 3 * reach * n):
