@@ -1,4 +1,5 @@
-"""Topological queries on triangle meshes: boundary points (Fig. 4.8) and neighbour rings (Fig. 4.9)."""
+"""Topological queries on triangle meshes: boundary points (Fig. 4.8), neighbour rings and
+distances over the surface (Fig. 4.9)."""
 
 from __future__ import annotations
 
@@ -46,21 +47,19 @@ def vertex_adjacency(faces: np.ndarray, n_vertices: int, edges=None) -> sparse.c
     return sparse.csr_matrix((data, (rows, cols)), shape=(n_vertices, n_vertices))
 
 
-def ring_distance(adjacency: sparse.csr_matrix, seeds: np.ndarray, max_rings: int) -> np.ndarray:
-    """Topological distance (in edge hops) from the seed vertices, up to ``max_rings``; -1 beyond.
-    ``adjacency`` is symmetric (``vertex_adjacency``).
-
-    One breadth-first search from all seeds at once, in C (an unweighted multi-source
-    Dijkstra): it visits only what lies within reach, where a sparse product per ring goes
-    over the whole mesh every ring. Searched as directed: on a symmetric graph that is the
-    same search, without scipy transposing the matrix first for an undirected one."""
+def path_distance(adjacency: sparse.csr_matrix, lengths: np.ndarray, seeds: np.ndarray, limit: float) -> np.ndarray:
+    """Length of the shortest path along edges from any seed vertex, up to ``limit``; inf
+    beyond. ``adjacency`` symmetric, ``lengths`` the length of each of its stored entries
+    (MeshTopology.adjacency_edge maps them to edges). How far apart two points are over the
+    cloth, which a fold bringing them face to face does not shorten."""
     n = adjacency.shape[0]
     seeds = np.unique(np.asarray(seeds, dtype=np.int64))
-    if not len(seeds) or max_rings < 0:
-        return np.full(n, -1, dtype=np.int64)
-    d = csgraph.dijkstra(adjacency, directed=True, indices=seeds, unweighted=True, limit=max_rings + 0.5,
-                         min_only=True)
-    return np.where(np.isfinite(d), d, -1).astype(np.int64)
+    if not len(seeds) or not limit >= 0:
+        return np.full(n, np.inf)
+    # a stored zero (duplicate vertices) would be no edge at all to csgraph: a hair above it
+    lengths = np.maximum(lengths, 1e-12 * max(float(np.max(lengths, initial=0.0)), 1e-300))
+    weighted = sparse.csr_matrix((lengths, adjacency.indices, adjacency.indptr), shape=adjacency.shape)
+    return csgraph.dijkstra(weighted, directed=True, indices=seeds, limit=limit, min_only=True)
 
 
 class MeshTopology:
@@ -82,9 +81,26 @@ class MeshTopology:
 
     @property
     def adjacency(self) -> sparse.csr_matrix:
+        """Symmetric vertex-vertex adjacency (CSR, boolean)."""
         if self._adjacency is None:
-            self._adjacency = vertex_adjacency(self.faces, self.n_vertices, self.edges)
+            self._build_adjacency()
         return self._adjacency
+
+    @property
+    def adjacency_edge(self) -> np.ndarray:
+        """Per stored entry of ``adjacency``, the index of its edge in ``edges``."""
+        if self._adjacency is None:
+            self._build_adjacency()
+        return self._adjacency_edge
+
+    def _build_adjacency(self):
+        e, n = self.edges, self.n_vertices
+        ids = np.arange(1, len(e) + 1)
+        numbered = sparse.csr_matrix((np.concatenate([ids, ids]), (np.concatenate([e[:, 0], e[:, 1]]),
+                                                                     np.concatenate([e[:, 1], e[:, 0]]))), shape=(n, n))
+        self._adjacency = sparse.csr_matrix((np.ones(numbered.nnz, dtype=bool), numbered.indices, numbered.indptr),
+                                            shape=(n, n))
+        self._adjacency_edge = numbered.data - 1
 
     @property
     def hem_loops(self) -> list:
