@@ -28,7 +28,8 @@ def crossing_corners(body_scene, body_vertices, body_edges, vertices, faces, tri
         return out
     # only body edges whose box meets the triangles' box can pass through them
     pairs, edge_lo, edge_hi = body_edges
-    used = np.unique(faces[tri])
+    used = np.zeros(len(vertices), dtype=bool)  # a mask, not a unique: a sort of most of the layer's corners
+    used[faces[tri].ravel()] = True
     # column by column: reductions and all(axis=1) over (n, 3) rows are slow
     lo = [float(vertices[used, axis].min()) for axis in range(3)]
     hi = [float(vertices[used, axis].max()) for axis in range(3)]
