@@ -79,7 +79,9 @@ def back_off(body_scene, body_vertices, body_edges, before, after, faces, edges,
     e = edges[(moved[edges[:, 0]] | moved[edges[:, 1]])
               & (clearance[edges[:, 0]] + clearance[edges[:, 1]] <= length)]
     near = clearance <= length.max(initial=0.0)
-    tri = np.flatnonzero(moved[faces].any(1) & near[faces].all(1))
+    # corner by corner: any/all over the rows of an (m, 3) gather is several times slower
+    tri = np.flatnonzero((moved[faces[:, 0]] | moved[faces[:, 1]] | moved[faces[:, 2]])
+                         & near[faces[:, 0]] & near[faces[:, 1]] & near[faces[:, 2]])
     if not len(tri) and not len(e):
         return after, 0
     out = after.copy()
@@ -94,6 +96,7 @@ def back_off(body_scene, body_vertices, body_edges, before, after, faces, edges,
         out[bad] = before[bad] + (after[bad] - before[bad]) * keep[bad, None]
         went_back |= bad
         # only what has a corner that went back can cross anew (clearances no longer hold there)
-        tri = tri[bad[faces[tri]].any(1)]
+        corners = faces[tri]
+        tri = tri[bad[corners[:, 0]] | bad[corners[:, 1]] | bad[corners[:, 2]]]
         e = edges[bad[edges[:, 0]] | bad[edges[:, 1]]]
     return out, int(went_back.sum())

@@ -26,7 +26,9 @@ def _edge_faces(faces, edges, crossed, n_vertices):
     e = edges[crossed]
     marked = np.zeros(n_vertices, dtype=bool)
     marked[e.ravel()] = True
-    maybe = np.flatnonzero(marked[faces].sum(1) >= 2)
+    # corner by corner: a sum over the rows of an (m, 3) gather is several times slower
+    ends = marked[faces[:, 0]].astype(np.int8) + marked[faces[:, 1]] + marked[faces[:, 2]]
+    maybe = np.flatnonzero(ends >= 2)
     f = faces[maybe]
     fe = np.sort(np.stack([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]], 1), axis=2)
     out = np.zeros(len(faces), dtype=bool)

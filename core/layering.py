@@ -202,6 +202,15 @@ class _SegmentScenes:
 _PASS_ROUNDS = 8
 
 
+def _either_column(mask):
+    """Rows of a 2-D bool array with any column set, column by column: any(axis=1) over short
+    rows is 10-20x slower."""
+    out = mask[:, 0].copy()
+    for k in range(1, mask.shape[1]):
+        out |= mask[:, k]
+    return out
+
+
 def _face_segment(faces, vertex_segment):
     if not len(faces):
         return np.zeros(0, dtype=np.int64)
@@ -243,7 +252,7 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
     allowed = np.zeros((n, len(links)), dtype=bool)
     rows_of, box_of = {}, {}
     for s in ray_segments:
-        members = rows_of[s] = np.flatnonzero((segs == s).any(1))
+        members = rows_of[s] = np.flatnonzero(_either_column(segs == s))
         allowed[members] |= links[s]
         reach = max_dist[members]
         # column by column: a reduction over the long axis of an (n, 3) array is several times slower
@@ -255,7 +264,7 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
         near = [s for s in ray_segments if scenes.bounds_overlap(s, *box_of[s])]
         if not near:
             continue
-        idx = rows_of[near[0]] if len(near) == 1 else np.flatnonzero(np.isin(segs, near).any(1))
+        idx = rows_of[near[0]] if len(near) == 1 else np.flatnonzero(_either_column(np.isin(segs, near)))
         boxes = np.array([box_of[s] for s in near])
         lo, hi = boxes[:, 0].min(0), boxes[:, 1].max(0)
         if cull:
