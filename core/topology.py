@@ -1,5 +1,5 @@
-"""Topological queries on triangle meshes: boundary points (Fig. 4.8), neighbour rings and
-distances over the surface (Fig. 4.9)."""
+"""Topological queries on triangle meshes: boundary points (Fig. 4.8), neighbours and distances
+over the surface (Fig. 4.9)."""
 
 from __future__ import annotations
 
@@ -40,11 +40,18 @@ def boundary_vertices(faces: np.ndarray, n_vertices: int) -> np.ndarray:
 
 def vertex_adjacency(faces: np.ndarray, n_vertices: int, edges=None) -> sparse.csr_matrix:
     """Symmetric vertex-vertex adjacency (CSR, boolean); ``edges`` if already found."""
-    e = edges_with_counts(faces)[0] if edges is None else edges
-    data = np.ones(2 * len(e), dtype=bool)
-    rows = np.concatenate([e[:, 0], e[:, 1]])
-    cols = np.concatenate([e[:, 1], e[:, 0]])
-    return sparse.csr_matrix((data, (rows, cols)), shape=(n_vertices, n_vertices))
+    return _numbered_adjacency(edges_with_counts(faces)[0] if edges is None else edges, n_vertices)[0]
+
+
+def _numbered_adjacency(edges: np.ndarray, n_vertices: int):
+    """(symmetric vertex-vertex adjacency, CSR boolean; per stored entry the index of its edge)."""
+    ids = np.arange(1, len(edges) + 1)
+    rows = np.concatenate([edges[:, 0], edges[:, 1]])
+    cols = np.concatenate([edges[:, 1], edges[:, 0]])
+    numbered = sparse.csr_matrix((np.concatenate([ids, ids]), (rows, cols)), shape=(n_vertices, n_vertices))
+    adjacency = sparse.csr_matrix((np.ones(numbered.nnz, dtype=bool), numbered.indices, numbered.indptr),
+                                  shape=(n_vertices, n_vertices))
+    return adjacency, numbered.data - 1
 
 
 def path_distance(adjacency: sparse.csr_matrix, lengths: np.ndarray, seeds: np.ndarray, limit: float) -> np.ndarray:
@@ -94,13 +101,7 @@ class MeshTopology:
         return self._adjacency_edge
 
     def _build_adjacency(self):
-        e, n = self.edges, self.n_vertices
-        ids = np.arange(1, len(e) + 1)
-        numbered = sparse.csr_matrix((np.concatenate([ids, ids]), (np.concatenate([e[:, 0], e[:, 1]]),
-                                                                     np.concatenate([e[:, 1], e[:, 0]]))), shape=(n, n))
-        self._adjacency = sparse.csr_matrix((np.ones(numbered.nnz, dtype=bool), numbered.indices, numbered.indptr),
-                                            shape=(n, n))
-        self._adjacency_edge = numbered.data - 1
+        self._adjacency, self._adjacency_edge = _numbered_adjacency(self.edges, self.n_vertices)
 
     @property
     def hem_loops(self) -> list:
