@@ -146,21 +146,30 @@ class Group:
             _lib.rtcReleaseScene(self.handle)
 
 
-def instance(scene, groups) -> None:
-    """Put each group into an empty embreex scene as an instance in place (Embree keeps each
-    group's scene alive while an instance holds it)."""
+def instance(scene, handles, offsets=None) -> None:
+    """Put each Embree scene (a raw handle: a ``Group``'s, or an embreex scene's from
+    ``handle_of``) into an empty embreex scene as an instance, moved by its row of ``offsets``
+    (none: in place). Embree keeps each instanced scene alive while an instance holds it."""
     handle = _handle(scene)
     device = _lib.rtcGetSceneDevice(handle)
-    for group in groups:
+    for i, inner in enumerate(handles):
         geom = _lib.rtcNewGeometry(device, _RTC_GEOMETRY_TYPE_INSTANCE)
         if not geom:
             raise RuntimeError("Embree could not make an instance")
-        _lib.rtcSetGeometryInstancedScene(geom, group.handle)
-        _lib.rtcSetGeometryTransform(geom, 0, _RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, _IDENTITY.ctypes.data)
+        _lib.rtcSetGeometryInstancedScene(geom, inner)
+        transform = _IDENTITY.copy()
+        if offsets is not None:
+            transform[9:] = offsets[i]
+        _lib.rtcSetGeometryTransform(geom, 0, _RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, transform.ctypes.data)
         _lib.rtcCommitGeometry(geom)
         _lib.rtcAttachGeometry(handle, geom)
         _lib.rtcReleaseGeometry(geom)
     scene.is_committed = 0
+
+
+def handle_of(scene):
+    """The RTCScene handle of an embreex scene, for ``instance``."""
+    return _handle(scene)
 
 
 def _handle(scene):
@@ -193,7 +202,7 @@ def available(new_scene) -> bool:
         before = first_hit(scene, 0.25)[1], first_hit(scene, 0.75)[1]
         tri.move(np.array([[0, 0, 0], [2, 0, 0], [0, 2, 0], [5, 5, 5]], float))
         group, top = Group(tri, 1, 2, geom_id=7), new_scene()
-        instance(top, [group])
+        instance(top, [group.handle])
         if before == (1, -1) and first_hit(scene, 0.75)[1] == 1 and first_hit(top, 0.75) == (7, 0):
             _state = "on"
     except (OSError, AttributeError, ValueError, RuntimeError, TypeError):

@@ -1,19 +1,20 @@
 """Triangles that still show through a higher layer (seed Fig. 4.14): where an edge of one layer
 passes through a triangle of another, the lower layer's triangle there is hidden.
 
-Each layer's scene is built once and every other layer's edges that reach into its bounds are
-traced against it, so every pair of layers is tested both ways. An occlusion test finds the
-few edges that cross anything; only those are traced on to name each triangle they pass
-through. (Grouping layers by the bits of their index, ceil(log2 layers) traces per edge
-against scenes of half the layers, was slower at 4 to 10 layers: each triangle is built into
-that many scenes, and half-layer bounds cull far fewer edges.)
+Each layer's scene is built once. Every layer's edges that reach into the bounds of the
+others are traced once against all of them together (one Embree scene instancing theirs), so
+every pair of layers is tested both ways; the few edges that cross anything are asked of each
+layer in turn, and only those are traced on to name each triangle they pass through. (Tracing
+every edge against each other layer in turn took twice as long on four concentric layers;
+grouping layers by the bits of their index, with each triangle built into several scenes,
+was slower still.)
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .rays import RayScene, step_past_hit
+from .rays import RayScene, SceneUnion, step_past_hit
 from .topology import used_vertices
 from .vectors import box, norms, rows
 
@@ -42,6 +43,17 @@ def _bounds(vertices, faces):
     return box(v)
 
 
+def _edges_near(vertices, edges, length, lo, hi):
+    """Edges (of nonzero length) that may reach into the box lo..hi: both ends within the
+    longest edge of it, tested vertex by vertex (a superset of the edges that do)."""
+    inside = vertices[:, 0] >= -np.inf
+    if len(length):
+        reach = float(length.max())
+        for axis in range(3):  # column by column: all(axis=1) on (n, 3) is slow
+            inside &= (vertices[:, axis] >= lo[axis] - reach) & (vertices[:, axis] <= hi[axis] + reach)
+    return np.flatnonzero(inside[edges[:, 0]] & inside[edges[:, 1]] & (length > 0))
+
+
 def crossing_faces(vertices, faces, edges, scenes=None) -> tuple[list, int]:
     """Per layer (lists ordered inner to outer; ``edges`` as sorted vertex pairs), a bool mask of
     its triangles that a higher layer crosses: the triangles an edge of a higher layer passes
@@ -52,46 +64,57 @@ def crossing_faces(vertices, faces, edges, scenes=None) -> tuple[list, int]:
     present = [k for k in range(len(faces)) if len(faces[k])]
     if len(present) < 2:
         return removed, 0
+    built = {}
+
+    def scene_of(j):
+        if j not in built:
+            given = scenes[j] if scenes is not None else None
+            built[j] = given if given is not None else RayScene(vertices[j], faces[j])
+        return built[j]
+
+    bounds = {j: _bounds(vertices[j], faces[j]) for j in present}
     start = [rows(v, e[:, 0]) for v, e in zip(vertices, edges, strict=True)]
     vec = [rows(v, e[:, 1]) - a for v, e, a in zip(vertices, edges, start, strict=True)]
     length = [norms(x) for x in vec]
-    # unit directions once per layer, as RayScene makes them, for its edges' traces against
-    # every other layer (zero-length edges are never traced)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        unit = [x / n[:, None] for x, n in zip(vec, length, strict=True)]
-    edge_lo = [np.minimum(a, a + b) for a, b in zip(start, vec, strict=True)]
-    edge_hi = [np.maximum(a, a + b) for a, b in zip(start, vec, strict=True)]
     crossed = [np.zeros(len(e), dtype=bool) for e in edges]
     rays = 0
-    for j in present:
-        lo, hi = _bounds(vertices[j], faces[j])
-        scene = None
-        found = []  # (layer, its edges that pass through something of layer j)
-        for k in (k for k in present if k != j):
-            # only edges reaching into the layer's bounds can cross it
-            near = length[k] > 0
-            for axis in range(3):  # column by column: all(axis=1) on (n, 3) is slow
-                near &= (edge_lo[k][:, axis] <= hi[axis]) & (edge_hi[k][:, axis] >= lo[axis])
-            pick = np.flatnonzero(near)
-            if not len(pick):
-                continue
-            if scene is None:
-                scene = scenes[j] if scenes is not None and scenes[j] is not None else RayScene(vertices[j], faces[j])
-            rays += len(pick)
-            # a layer's edges against another, straight from its arrays where all of them are asked
-            every = len(pick) == len(near)
-            o, d, t = ((start[k], unit[k], length[k]) if every else
-                       (rows(start[k], pick), rows(unit[k], pick), length[k][pick]))
-            found.append((k, pick[scene.occluded(o, d, max_dist=t, unit=True)]))
-        found = [(k, idx) for k, idx in found if len(idx)]
-        if not found:
+    found = {j: [] for j in present}  # per layer: (layer, its edges that pass through something of it)
+    for k in present:
+        own_lo, own_hi = bounds[k]
+        others = [j for j in present if j != k and (bounds[j][0] <= own_hi).all() and (bounds[j][1] >= own_lo).all()]
+        if not others:
             continue
+        lo = np.min([bounds[j][0] for j in others], axis=0)
+        hi = np.max([bounds[j][1] for j in others], axis=0)
+        # a layer's edges once against all the others together: few cross anything
+        pick = (np.flatnonzero(length[k] > 0) if (own_lo >= lo).all() and (own_hi <= hi).all() else
+                _edges_near(vertices[k], edges[k], length[k], lo, hi))
+        if not len(pick):
+            continue
+        every = len(pick) == len(length[k])
+        o, d = (start[k], vec[k]) if every else (rows(start[k], pick), rows(vec[k], pick))
+        against = scene_of(others[0]) if len(others) == 1 else SceneUnion([scene_of(j) for j in others])
+        rays += len(pick)
+        hit = pick[against.occluded(o, d, max_dist=1.0, scaled=True)]
+        if not len(hit):
+            continue
+        for j in others:  # which layers those edges cross
+            near = hit if len(others) == 1 else hit[_edges_near(vertices[k], edges[k][hit], length[k][hit], *bounds[j])]
+            if len(near) and len(others) > 1:
+                rays += len(near)
+                near = near[scene_of(j).occluded(rows(start[k], near), rows(vec[k], near), max_dist=1.0, scaled=True)]
+            if len(near):
+                found[j].append((k, near))
+    for j in present:
+        if not found[j]:
+            continue
+        scene, (lo, hi) = scene_of(j), bounds[j]
         # the few edges that cross something, traced on to name each triangle they pass through
-        owner = np.concatenate([np.full(len(idx), k) for k, idx in found])
-        index = np.concatenate([idx for _, idx in found])
-        o = np.concatenate([rows(start[k], idx) for k, idx in found])
-        d = np.concatenate([rows(vec[k], idx) for k, idx in found])
-        tmax = np.concatenate([length[k][idx] for k, idx in found])
+        owner = np.concatenate([np.full(len(idx), k) for k, idx in found[j]])
+        index = np.concatenate([idx for _, idx in found[j]])
+        o = np.concatenate([rows(start[k], idx) for k, idx in found[j]])
+        d = np.concatenate([rows(vec[k], idx) for k, idx in found[j]])
+        tmax = np.concatenate([length[k][idx] for k, idx in found[j]])
         live = np.arange(len(o))
         t_min = np.zeros(len(o))
         step = step_past_hit(tmax, lo, hi)

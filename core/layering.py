@@ -22,7 +22,7 @@ from .body_guard import back_off
 from .correspondence import BodyCorrespondence
 from .garment_prep import GarmentPrep
 from .hidden_faces import crossing_faces
-from .rays import RayScene, step_past_hit
+from .rays import RayScene, SceneUnion, step_past_hit
 from .segmentation import get_scheme
 from .topology import path_distance, topology_of
 from .vectors import box, norms, rows
@@ -258,15 +258,36 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
         # column by column: a reduction over the long axis of an (n, 3) array is several times slower
         box_of[s] = np.array([[(origins[members, a] - reach).min() for a in range(3)],
                               [(origins[members, a] + reach).max() for a in range(3)]])
+    plan = []
     for k in layers:
-        scenes = layer_scenes[k]
         # the rays of every segment whose triangles' box is within those rays' reach
-        near = [s for s in ray_segments if scenes.bounds_overlap(s, *box_of[s])]
-        if not near:
+        near = [s for s in ray_segments if layer_scenes[k].bounds_overlap(s, *box_of[s])]
+        if near:
+            boxes = np.array([box_of[s] for s in near])
+            plan.append((k, rows_of[near[0]] if len(near) == 1 else np.flatnonzero(_either_column(np.isin(segs, near))),
+                         boxes[:, 0].min(0), boxes[:, 1].max(0)))
+    if not cull and len(plan) > 1:
+        # One occlusion test against all the layers at once first: most probes meet nothing
+        # (cloth already behind), and those need no search on each layer for the hit that counts.
+        # It reaches a little past both ends of each ray, so it misses nothing the search finds.
+        asked = np.zeros(n, dtype=bool)
+        for _, idx, _, _ in plan:
+            asked[idx] = True
+        asked = np.flatnonzero(asked)
+        slack = step_past_hit(max_dist[asked], np.min([p[2] for p in plan], 0), np.max([p[3] for p in plan], 0))
+        union = SceneUnion([layer_scenes[k].full() for k, *_ in plan])
+        t0 = time.perf_counter()
+        meets = union.occluded(rows(origins, asked), rows(directions, asked), max_dist=max_dist[asked] + slack,
+                               min_dist=-slack)
+        trace_s += time.perf_counter() - t0
+        rays += len(asked)
+        keep = np.zeros(n, dtype=bool)
+        keep[asked[meets]] = True
+        plan = [(k, idx[keep[idx]], lo, hi) for k, idx, lo, hi in plan]
+    for k, idx, lo, hi in plan:
+        if not len(idx):
             continue
-        idx = rows_of[near[0]] if len(near) == 1 else np.flatnonzero(_either_column(np.isin(segs, near)))
-        boxes = np.array([box_of[s] for s in near])
-        lo, hi = boxes[:, 0].min(0), boxes[:, 1].max(0)
+        scenes = layer_scenes[k]
         if cull:
             found = scenes.get_near(np.flatnonzero(allowed[idx].any(0)[scenes.face_segment]), origins[idx],
                                     float(max_dist[idx].max()))
