@@ -21,7 +21,8 @@ import time
 import bpy
 import numpy as np
 
-from ..core.body_facts import body_facts, digest, frozen
+from ..core.body_facts import body_facts, frozen
+from ..core.keys import digest
 from ..core.layered_trace import LayeredScene
 from ..core.segmentation import get_scheme, is_skirt, skirt_segments
 from ..core.whitted import Image, Light, Material, Surfaces, camera_rays, render

@@ -4,7 +4,6 @@ pays for the body's normals, radii, nearest-point search and part junctions once
 
 from __future__ import annotations
 
-import hashlib
 import threading
 
 import numpy as np
@@ -12,6 +11,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from .correspondence import closest_point_on_triangles, incident_triangles, local_radius, surface_search, vertex_normals
+from .keys import digest
 from .rays import RayScene
 from .topology import topology_of, vertex_adjacency
 from .vectors import box, norms, rows
@@ -22,16 +22,6 @@ _kept: dict = {}
 # memory budget (about 120 bytes a garment vertex)
 _KEEP_PREPARED = 16
 _KEEP_PREPARED_BYTES = 256 * 2**20
-
-
-def digest(*arrays) -> bytes:
-    """A key for the content of these arrays (dtype, shape and bytes)."""
-    h = hashlib.sha1(usedforsecurity=False)  # the fastest here (hardware SHA); a key, not a seal
-    for a in arrays:
-        a = np.ascontiguousarray(a)
-        h.update(str((a.dtype, a.shape)).encode())
-        h.update(a.data)
-    return h.digest()
 
 
 def frozen(a):

@@ -11,8 +11,9 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .body_facts import digest, frozen
+from .body_facts import frozen
 from .correspondence import BodyCorrespondence, closest_on_table, nearest_on_surface, triangle_table
+from .keys import digest
 from .segmentation import hull_normals, is_skirt, skirt_segments
 from .vectors import box, norms, rows
 

@@ -16,8 +16,8 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError, cKDTree
 
-from .body_facts import digest
 from .correspondence import closest_on_table, triangle_table
+from .keys import digest
 from .parallel import map_chunks
 from .topology import topology_of
 from .vectors import norms, rows

@@ -7,6 +7,8 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse import csgraph
 
+from .keys import digest
+
 
 def edges_with_counts(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unique undirected edges (sorted pairs, in lexicographic order) and how many triangles use each."""
@@ -122,10 +124,8 @@ _topologies: dict = {}
 
 def topology_of(faces: np.ndarray, n_vertices: int, keep: int = 16) -> MeshTopology:
     """The MeshTopology of ``faces``, remembered across calls (by content) for the last few."""
-    import hashlib
-
     f = np.ascontiguousarray(faces, dtype=np.int64)
-    key = (n_vertices, f.shape, hashlib.blake2b(f.data, digest_size=16).digest())
+    key = (n_vertices, digest(f))
     found = _topologies.pop(key, None)
     if found is None:
         found = MeshTopology(f, n_vertices)
