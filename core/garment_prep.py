@@ -15,6 +15,7 @@ from .body_facts import frozen
 from .correspondence import BodyCorrespondence, closest_on_table, nearest_on_surface, triangle_table
 from .keys import digest
 from .segmentation import hull_normals, is_skirt, skirt_segments
+from .topology import topology_of
 from .vectors import box, norms, rows
 
 
@@ -22,13 +23,14 @@ class Prepared(NamedTuple):
     """What the pre-processing finds for one garment (kept for the next resolve as a read-only copy)."""
 
     corr: BodyCorrespondence
-    at_body: np.ndarray  # the body's normal at each vertex's body point
+    clearance: np.ndarray  # a lower bound on each vertex's distance from the body (inf: inside it)
     normals: np.ndarray  # the global normals n'
     vseg: np.ndarray  # segment id per vertex
     vseg2: np.ndarray  # (n, 2) segment and the part across a nearby junction (-1: none)
     probe_len: np.ndarray  # l_s per vertex
     skirt: bool
     far: int  # vertices farther from the body than their probe reaches
+    mean_edge: float  # the garment's mean edge length
 
 
 
@@ -38,15 +40,16 @@ def _read_only_copy(entry: Prepared) -> Prepared:
     c = entry.corr
     return entry._replace(corr=BodyCorrespondence(frozen(c.triangle), frozen(c.bary), frozen(c.distance)),
                           **{f: frozen(getattr(entry, f))
-                             for f in ("at_body", "normals", "vseg", "vseg2", "probe_len")})
+                             for f in ("clearance", "normals", "vseg", "vseg2", "probe_len")})
 
 
 class GarmentPrep:
     """The pre-processing of one resolve of garments ``garr`` ((vertices, faces) each) on the
     BodyFacts ``body``. Per garment, filled as each is prepared (None before): ``corr``
-    (BodyCorrespondence), ``at_body`` (the body's normal at each vertex's body point),
-    ``normals`` (n'), ``vseg`` (segment per vertex), ``vseg2`` (segment and the part across a
-    nearby junction), ``probe_len`` (l_s per vertex). ``traced``: per garment whether it comes
+    (BodyCorrespondence), ``clearance`` (a lower bound on each vertex's distance from the body:
+    the distance to its body point, inf inside the body), ``normals`` (n'), ``vseg`` (segment per
+    vertex), ``vseg2`` (segment and the part across a nearby junction), ``probe_len`` (l_s per
+    vertex), ``mean_edge`` (mean edge length). ``traced``: per garment whether it comes
     near another; ``active``: those, in order; ``skirts``, ``reused`` (found kept), ``far``
     (vertices farther from the body than their probe reaches). ``complete()`` prepares the
     garments the resolve did not trace, for a caller that reads them."""
@@ -59,7 +62,7 @@ class GarmentPrep:
         self.given_normals, self.given_segments, self.given_corr = given_normals, given_segments, given_corr
         n_g = len(garr)
         self.corr, self.normals, self.vseg, self.vseg2, self.probe_len = ([None] * n_g for _ in range(5))
-        self.at_body = [None] * n_g  # the global normal unless overridden
+        self.clearance, self.mean_edge = [None] * n_g, [0.0] * n_g
         self.skirts, self.reused = [], []
         # A garment whose box, grown by three times what a stage can reach (a probe or hem ray's
         # l_s plus d, and two moves of at most that, its own or the other's), meets no other
@@ -134,7 +137,8 @@ class GarmentPrep:
             kc = entry.corr
             self.corr[i] = BodyCorrespondence(kc.triangle.copy(), kc.bary.copy(), kc.distance.copy())
             self.normals[i], self.vseg[i] = entry.normals.copy(), entry.vseg.copy()
-        self.at_body[i], self.vseg2[i], self.probe_len[i] = entry.at_body, entry.vseg2, entry.probe_len
+        self.vseg2[i], self.probe_len[i] = entry.vseg2, entry.probe_len
+        self.clearance[i], self.mean_edge[i] = entry.clearance.copy(), entry.mean_edge
         if entry.skirt:
             self.skirts.append(i)
         return entry.far
@@ -181,7 +185,12 @@ class GarmentPrep:
         if len(self.junctions[0]) and self.given_segments[i] is None and len(v):
             border = _border_segment(v, c.distance, s, self.junctions, self.margin)
         far = int((c.distance > lv).sum()) if len(v) else 0
-        return Prepared(c, at_body, n, s, np.column_stack([s, border]), lv, skirt, far)
+        # distance is 1-Lipschitz: the distance to the body point bounds the distance to the
+        # body from below, unless the vertex is inside it (behind its body point's normal)
+        clearance = np.where(np.einsum("ij,ij->i", v - c.points(bv, bf), at_body) < 0, np.inf, c.distance)
+        e = topology_of(f, len(v)).edges
+        mean_edge = float(norms(rows(v, e[:, 0]) - rows(v, e[:, 1])).mean()) if len(e) else 0.0
+        return Prepared(c, clearance, n, s, np.column_stack([s, border]), lv, skirt, far, mean_edge)
 
     def complete(self):
         """The entries of the garments not searched, for the result's first reader."""

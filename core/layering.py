@@ -506,7 +506,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     prep = GarmentPrep(body, garr, body_seg, scheme, links, one_part, l_seg, radius, local_probe, junctions, margin,
                        d, g_normals_in, g_segments_in, g_corr_in)
     corr, normals, vseg, vseg2, probe_len = prep.corr, prep.normals, prep.vseg, prep.vseg2, prep.probe_len
-    at_body, traced, active = prep.at_body, prep.traced, prep.active
+    traced, active = prep.traced, prep.active
     timings["correspondence_s"] = time.perf_counter() - t0
 
     verts = [v.copy() for v, _ in garr]
@@ -526,9 +526,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     # every inward move since (distance is 1-Lipschitz). Unlike a ray along -n', it also sees
     # body parts beside the ray (a joint bulging next to a limb). Inside the body: no bound.
     for i in active:
-        c = corr[i]
-        clearance[i] = np.where(np.einsum("ij,ij->i", verts[i] - c.points(bv, bf), at_body[i]) < 0, np.inf,
-                                c.distance)
+        clearance[i] = prep.clearance[i]
     # A correspondence passed in may name body points from another frame (cloth slides over its
     # collider), whose distance only bounds the real one from above. There a vertex also keeps
     # no further than it can go along its -n' (every move goes that way) before it meets the
@@ -538,8 +536,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     floor_clamped = 0
     # An edge between two vertices held at the floor bows into a curved body by its sagitta
     # e^2 / 8R; a tenth of the longest mean edge covers body radii down to 1.25 edges.
-    chord = 0.1 * max((float(norms(rows(verts[i], edges[i][:, 0]) - rows(verts[i], edges[i][:, 1])).mean())
-                       for i in active if len(edges[i])), default=0.0)
+    chord = 0.1 * max((prep.mean_edge[i] for i in active if len(edges[i])), default=0.0)
 
     def room_of(k, idx):
         """How far each vertex idx of layer k may still go inward."""
@@ -659,7 +656,8 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     out, moved = [], []
     for i, (v0, _) in enumerate(garr):
         moved.append(verts[i] - v0)
-        out.append(trimesh.Trimesh(verts[i], faces[i][~removed[i]], process=False, validate=False))
+        kept_faces = faces[i][~removed[i]] if removed[i].any() else faces[i].copy()  # a mask's gather is slower
+        out.append(trimesh.Trimesh(verts[i], kept_faces, process=False, validate=False))
     timings["total_s"] = time.perf_counter() - t_start
     stats = {
         **timings,
