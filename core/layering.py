@@ -275,23 +275,12 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
             plan.append((k, rows_of[near[0]] if len(near) == 1 else np.flatnonzero(_either_column(np.isin(segs, near))),
                          boxes[:, 0].min(0), boxes[:, 1].max(0)))
     if not cull and len(plan) > 1:
-        # One occlusion test against all the layers at once first: most probes meet nothing
-        # (cloth already behind), and those need no search on each layer for the hit that counts.
-        # It reaches a little past both ends of each ray, so it misses nothing the search finds.
-        asked = np.zeros(n, dtype=bool)
-        for _, idx, _, _ in plan:
-            asked[idx] = True
-        asked = np.flatnonzero(asked)
-        slack = step_past_hit(max_dist[asked], np.min([p[2] for p in plan], 0), np.max([p[3] for p in plan], 0))
-        union = SceneUnion([layer_scenes[k].full() for k, *_ in plan])
         t0 = time.perf_counter()
-        meets = union.occluded(rows(origins, asked), rows(directions, asked), max_dist=max_dist[asked] + slack,
-                               min_dist=-slack)
+        meets, asked = _meeting_any(origins, directions, max_dist, plan, layer_scenes)
         trace_s += time.perf_counter() - t0
-        rays += len(asked)
-        keep = np.zeros(n, dtype=bool)
-        keep[asked[meets]] = True
-        plan = [(k, idx[keep[idx]], lo, hi) for k, idx, lo, hi in plan]
+        rays += asked
+        if meets is not None:
+            plan = [(k, idx[meets[idx]], lo, hi) for k, idx, lo, hi in plan]
     for k, idx, lo, hi in plan:
         if not len(idx):
             continue
@@ -341,6 +330,41 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
             if not len(live):
                 break
     return best_t, best_layer, best_face, rays, trace_s
+
+
+# Rays asked first whether they meet anything at all, to learn whether that test pays
+_SAMPLE_RAYS = 1024
+
+
+def _meeting_any(origins, directions, max_dist, plan, layer_scenes):
+    """(mask over all rays of those the plan asks that meet any triangle of its layers, rays
+    traced). One occlusion test against all the layers at once: where most probes meet nothing
+    (cloth already behind), those need no search on each layer for the hit that counts. Probes
+    that mostly meet something that does not count (the far side of a sleeve, facing away)
+    gain nothing from it: a sample decides first, and then the mask is None. The test reaches a
+    little past both ends of each ray, so it misses nothing the search finds."""
+    n = len(origins)
+    asked = np.zeros(n, dtype=bool)
+    for _, idx, _, _ in plan:
+        asked[idx] = True
+    asked = np.flatnonzero(asked)
+    slack = step_past_hit(max_dist[asked], np.min([p[2] for p in plan], 0), np.max([p[3] for p in plan], 0))
+    union = SceneUnion([layer_scenes[k].full() for k, *_ in plan])
+
+    def meeting(ids, reach):
+        return union.occluded(rows(origins, ids), rows(directions, ids), max_dist=max_dist[ids] + reach,
+                              min_dist=-reach)
+
+    every = max(1, len(asked) // _SAMPLE_RAYS)
+    traced = 0
+    if every > 1:
+        traced = len(asked[::every])
+        # the search on each layer costs about what this test does: it pays where most meet nothing
+        if meeting(asked[::every], slack[::every]).mean() > 0.5:
+            return None, traced
+    out = np.zeros(n, dtype=bool)
+    out[asked[meeting(asked, slack)]] = True
+    return out, traced + len(asked)
 
 
 def _spread_from_hits(vertices, faces, topology, hit_points, amplitude, seed_vertices, falloff=None):
