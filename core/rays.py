@@ -316,16 +316,9 @@ class RayScene:
         ``scaled``: the directions are used as given, not made of length one, and the distances
         are in units of each direction's length (an edge as origin and vector: 0..1)."""
         self._check_fresh()
-        o, d = _as_rays(origins, directions, scaled)
-        n = len(o)
-        tmax = _as_range("max_dist", max_dist, n, np.inf)
-        tmin = _as_range("min_dist", min_dist, n, 0.0)
-        out = np.zeros(n, dtype=bool)
-        active = tmax >= tmin
-        if not len(self.faces) or not active.any():
+        o, d, tmin, tmax, out, idx = _occlusion_rays(origins, directions, max_dist, min_dist, scaled)
+        if not len(self.faces) or idx is None:
             return out
-        # every ray from its own origin (the common case): no gathers, no shifted origins
-        idx = slice(None) if active.all() else np.flatnonzero(active)
         if self._scene is None:
             # the numpy engine measures along unit directions
             scale = norms(d[idx]) if scaled else np.ones(len(o[idx]))
@@ -432,6 +425,19 @@ class RayScene:
         return np.nan_to_num(np.column_stack([u, v]))
 
 
+def _occlusion_rays(origins, directions, max_dist, min_dist, scaled):
+    """Checked rays of an occlusion query: (o, d, tmin, tmax, all-False answers, the rays with
+    tmax >= tmin as a slice or indices, None when there are none)."""
+    o, d = _as_rays(origins, directions, scaled)
+    n = len(o)
+    tmax = _as_range("max_dist", max_dist, n, np.inf)
+    tmin = _as_range("min_dist", min_dist, n, 0.0)
+    active = tmax >= tmin
+    # every ray from its own origin (the common case): no gathers, no shifted origins
+    idx = None if not active.any() else slice(None) if active.all() else np.flatnonzero(active)
+    return o, d, tmin, tmax, np.zeros(n, dtype=bool), idx
+
+
 def _embree_occluded(scene, center, threads, o, d, lo, span):
     """Occlusion of rays from ``o`` (+ ``d`` x ``lo``, if given) over ``span`` against a
     committed embreex scene built about ``center``."""
@@ -479,15 +485,9 @@ class SceneUnion:
             for s in self._members:
                 out |= s.occluded(origins, directions, max_dist=max_dist, min_dist=min_dist, scaled=scaled)
             return out
-        o, d = _as_rays(origins, directions, scaled)
-        n = len(o)
-        tmax = _as_range("max_dist", max_dist, n, np.inf)
-        tmin = _as_range("min_dist", min_dist, n, 0.0)
-        out = np.zeros(n, dtype=bool)
-        active = tmax >= tmin
-        if not active.any():
+        o, d, tmin, tmax, out, idx = _occlusion_rays(origins, directions, max_dist, min_dist, scaled)
+        if idx is None:
             return out
-        idx = slice(None) if active.all() else np.flatnonzero(active)
         if not self._scene.is_committed:
             self._scene.run(np.zeros((1, 3), np.float32), np.array([[0.0, 0.0, 1.0]], np.float32))
         out[idx] = _embree_occluded(self._scene, self._center, self.threads, o[idx], d[idx],
