@@ -326,7 +326,6 @@ class RayScene:
                 unit = d[idx] / scale[:, None]
             out[idx] = self._fallback(o[idx], unit, tmin[idx] * scale, tmax[idx] * scale)[1] >= 0
             return out
-        self.commit()
         out[idx] = _embree_occluded(self._scene, self._center, self.threads, o[idx], d[idx],
                                     None if min_dist is None else tmin[idx], tmax[idx] - tmin[idx])
         return out
@@ -334,9 +333,8 @@ class RayScene:
     def commit(self) -> None:
         """Build the acceleration structure now (else the first ray after a build or a move
         does), so callers can time the build apart from tracing."""
-        if self._scene is not None and not self._scene.is_committed:
-            # embreex commits on its first ray: one ray here, on one thread, not in several chunks at once
-            self._scene.run(np.zeros((1, 3), np.float32), np.array([[0.0, 0.0, 1.0]], np.float32))
+        if self._scene is not None:
+            _commit(self._scene)
 
     def _map_chunks(self, fn, n):
         self.commit()
@@ -438,9 +436,17 @@ def _occlusion_rays(origins, directions, max_dist, min_dist, scaled):
     return o, d, tmin, tmax, np.zeros(n, dtype=bool), idx
 
 
+def _commit(scene):
+    """Build an embreex scene's BVH if it is not built."""
+    if not scene.is_committed:
+        # embreex commits on its first ray: one ray here, on one thread, not in several chunks at once
+        scene.run(np.zeros((1, 3), np.float32), np.array([[0.0, 0.0, 1.0]], np.float32))
+
+
 def _embree_occluded(scene, center, threads, o, d, lo, span):
-    """Occlusion of rays from ``o`` (+ ``d`` x ``lo``, if given) over ``span`` against a
-    committed embreex scene built about ``center``."""
+    """Occlusion of rays from ``o`` (+ ``d`` x ``lo``, if given) over ``span`` against an
+    embreex scene built about ``center`` (committed first)."""
+    _commit(scene)
 
     # each worker converts its own slice to float32, so that runs on every core too
     def run(sl):
@@ -488,8 +494,6 @@ class SceneUnion:
         o, d, tmin, tmax, out, idx = _occlusion_rays(origins, directions, max_dist, min_dist, scaled)
         if idx is None:
             return out
-        if not self._scene.is_committed:
-            self._scene.run(np.zeros((1, 3), np.float32), np.array([[0.0, 0.0, 1.0]], np.float32))
         out[idx] = _embree_occluded(self._scene, self._center, self.threads, o[idx], d[idx],
                                     None if min_dist is None else tmin[idx], tmax[idx] - tmin[idx])
         return out
