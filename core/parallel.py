@@ -33,13 +33,24 @@ def _get_pool(threads: int) -> ThreadPoolExecutor:
         return _pool
 
 
-def map_chunks(fn, n: int, min_chunk: int, threads: int | None = None) -> list:
+def map_chunks(fn, n: int, min_chunk: int, threads: int | None = None, block: int | None = None) -> list:
     """``fn(slice)`` over about ``4 x threads`` slices of ``range(n)`` (none below ``min_chunk``
-    items, where a thread hand-off costs more than it saves), in order."""
+    items, where a thread hand-off costs more than it saves), in order. With ``block``, each
+    thread walks its slice in pieces of at most ``block`` items, one call each (all the calls'
+    results in order): numpy work whose temporaries of a piece stay in the core's cache runs
+    faster than over the whole slice at once."""
     threads = thread_count() if threads is None else max(1, int(threads))
     chunks = max(1, min(threads * 4, n // max(1, min_chunk)))
+    if block:
+        step = max(1, int(block))
+
+        def call(sl):
+            return [fn(slice(a, min(a + step, sl.stop))) for a in range(sl.start, sl.stop, step)] or [fn(sl)]
+    else:
+        def call(sl):
+            return [fn(sl)]
     if chunks == 1 or threads == 1:
-        return [fn(slice(0, n))]
+        return call(slice(0, n))
     bounds = np.linspace(0, n, chunks + 1).astype(int)
     slices = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
-    return list(_get_pool(threads).map(fn, slices))
+    return [r for part in _get_pool(threads).map(call, slices) for r in part]

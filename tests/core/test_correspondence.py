@@ -107,3 +107,22 @@ def test_local_radius_of_a_cylinder_is_its_radius(radius):
     side = (v[:, 2] > radius) & (v[:, 2] < 9 * radius)
     np.testing.assert_allclose(r[side], radius, rtol=0.005)
     assert np.isfinite(r).all()
+
+
+def test_nearest_point_over_many_pieces_on_two_threads_matches_trimesh(monkeypatch):
+    """More points than one piece of the candidates' test holds, on every slice of two threads:
+    each piece writes its own points' answers and no other's."""
+    import core.correspondence as corr
+
+    monkeypatch.setenv("DEFORMRT_THREADS", "2")
+    monkeypatch.setattr(corr, "_SEARCH_BLOCK", 97)
+    v, f = bumpy_body(subdivisions=2)
+    rng = np.random.default_rng(7)
+    pts = rng.normal(size=(3001, 3))
+    pts *= rng.uniform(0.8, 1.4, (3001, 1)) / np.linalg.norm(pts, axis=1, keepdims=True)
+    ours = nearest_on_surface(pts, v, f, chunk=64)
+    _, ref_d, _ = trimesh.proximity.closest_point(trimesh.Trimesh(v, f, process=False), pts)
+    # a point on the surface as far as the nearest is a nearest point (at ties, any of them)
+    np.testing.assert_allclose(np.linalg.norm(pts - ours.points(v, f), axis=1), ref_d, atol=1e-9)
+    np.testing.assert_allclose(ours.distance, ref_d, atol=1e-9)
+    assert np.allclose(ours.bary.sum(1), 1) and (ours.bary >= -1e-12).all()
