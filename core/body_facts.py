@@ -118,9 +118,26 @@ class BodyFacts:
         return out if given is None else np.where(np.isnan(given), out, given)
 
     def junctions(self, segment):
+        """``part_junctions`` of this body under ``segment``, kept for the next call."""
+        return self._junctions_of(segment)[0]
+
+    def junction_distance(self, segment):
+        """Per body vertex, the distance to the nearest junction of its own part (inf: its part has
+        none): with the triangle inequality, a lower bound on any point's distance to them."""
+        found = self._junctions_of(segment)
+        if found[1] is None:
+            pos, own, _ = found[0]
+            out = np.full(len(self.vertices), np.inf)
+            for part in np.unique(own):
+                mine = np.flatnonzero(segment == part)
+                out[mine] = cKDTree(pos[own == part]).query(rows(self.vertices, mine))[0]
+            found[1] = out
+        return found[1]
+
+    def _junctions_of(self, segment):
         key = digest(segment)
         if key not in self._junctions:
-            self._junctions = {key: part_junctions(self.vertices, self.faces, segment)}
+            self._junctions = {key: [part_junctions(self.vertices, self.faces, segment), None]}
         return self._junctions[key]
 
     def prepared(self, key):

@@ -183,7 +183,11 @@ class GarmentPrep:
             s = np.zeros_like(s)
         border = np.full(len(v), -1)
         if len(self.junctions[0]) and self.given_segments[i] is None and len(v):
-            border = _border_segment(v, c.distance, s, self.junctions, self.margin)
+            # from the corner whose part the vertex took: no junction of that part is nearer than
+            # the corner's own nearest less the corner's distance (the others are asked)
+            lower = self.body.junction_distance(body_seg)[corner] - norms(v - rows(bv, corner))
+            lower[s != body_seg[corner]] = 0.0
+            border = _border_segment(v, c.distance, s, self.junctions, self.margin, lower)
         far = int((c.distance > lv).sum()) if len(v) else 0
         # distance is 1-Lipschitz: the distance to the body point bounds the distance to the
         # body from below, unless the vertex is inside it (behind its body point's normal)
@@ -298,10 +302,12 @@ def _big_in_reach(points, nearest_distance, body, budget=1_000_000):
     return np.unique(search.big[near[ti[d2 <= r[pi] ** 2]]])
 
 
-def _border_segment(points, distance, primary, junctions, margin):
+def _border_segment(points, distance, primary, junctions, margin, lower=None):
     """Per point, the other part at the nearest junction of its own part within sqrt(2) times
     its body distance plus ``margin``, else -1. Near a border between parts, a garment's triangles and
-    the vertices of the layer below take different parts by a hair; their rays look in both."""
+    the vertices of the layer below take different parts by a hair; their rays look in both.
+    ``lower``: per point a lower bound on its distance to those junctions; points it puts out
+    of reach are not searched."""
     out = np.full(len(points), -1)
     pos, own, other = junctions
     for part in np.unique(primary):
@@ -311,7 +317,14 @@ def _border_segment(points, distance, primary, junctions, margin):
             continue
         # within 45 degrees of the junction as seen from the body: sqrt(2) times the distance
         reach = np.sqrt(2.0) * distance[mine] + margin
-        d, j = cKDTree(pos[at]).query(points[mine], distance_upper_bound=float(reach.max()), workers=-1)
+        bound = float(reach.max())
+        if lower is not None:
+            # round-off of the bound's two distances: far below any reach that matters
+            ask = lower[mine] <= reach * (1 + 1e-9) + 1e-12 * bound
+            mine, reach = mine[ask], reach[ask]
+            if not len(mine):
+                continue
+        d, j = cKDTree(pos[at]).query(points[mine], distance_upper_bound=bound, workers=-1)
         ok = d <= reach
         out[mine[ok]] = other[at][j[ok]]
     return out

@@ -51,6 +51,43 @@ def test_junctions_follow_the_segmentation_they_are_asked_for():
             np.testing.assert_array_equal(a, b)
 
 
+def test_junction_distance_is_each_vertex_s_nearest_junction_of_its_own_part_by_brute_force():
+    body = body_tube()
+    v, f = np.asarray(body.vertices), np.asarray(body.faces)
+    facts = body_facts(v, f)
+    # three parts by height, and one part (3) with no junction at all: a lone band of ids
+    seg = np.digitize(v[:, 2], np.quantile(v[:, 2], [1 / 3, 2 / 3])).astype(np.int64)
+    for s in (seg, np.where(seg == 2, 3, seg)):
+        got = facts.junction_distance(s)
+        pos, own, _ = facts.junctions(s)
+        want = np.full(len(v), np.inf)
+        for i in range(len(v)):
+            mine = pos[own == s[i]]
+            if len(mine):
+                want[i] = np.linalg.norm(mine - v[i], axis=1).min()
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=0)
+
+
+def test_border_parts_are_the_same_with_the_lower_bound_that_skips_far_points():
+    """_border_segment with a lower bound on each point's junction distance (here the exact one,
+    the tightest, so points at the reach's edge are skipped or asked by a hair) against without."""
+    from core.garment_prep import _border_segment
+
+    rng = np.random.default_rng(3)
+    pos = rng.uniform(-1, 1, (60, 3))
+    own, other = rng.integers(0, 3, 60), rng.integers(3, 5, 60)
+    points = rng.uniform(-1.2, 1.2, (4000, 3))
+    primary, distance = rng.integers(0, 4, 4000), rng.uniform(0, 0.2, 4000)  # part 3 has no junction
+    exact = np.array([np.linalg.norm(pos[own == p] - x, axis=1).min() if (own == p).any() else np.inf
+                      for x, p in zip(points, primary, strict=True)])
+    plain = _border_segment(points, distance, primary, (pos, own, other), 0.05)
+    bounded = _border_segment(points, distance, primary, (pos, own, other), 0.05, lower=exact)
+    np.testing.assert_array_equal(bounded, plain)
+    assert (plain >= 0).sum() > 100 and (plain < 0).sum() > 100  # both kinds of answer are there
+    # a bound that is not one (too large) would drop answers: the test can tell
+    assert (_border_segment(points, distance, primary, (pos, own, other), 0.05, lower=exact + 0.1) != plain).any()
+
+
 def test_a_resolve_with_kept_facts_equals_one_from_scratch():
     body = body_tube()
     garments = list(noisy_sleeves(n=30))
