@@ -113,7 +113,7 @@ class LayeredScene:
         hit = obj >= 0
         if not len(stacked):
             return np.zeros((len(obj), *np.shape(stacked)[1:]))
-        corner = self.scene.faces[np.where(hit, self.first_face[np.maximum(obj, 0)] + face, 0)]
+        corner = rows(self.scene.faces, np.where(hit, self.first_face[np.maximum(obj, 0)] + face, 0))
         shape = (-1, *([1] * (np.ndim(stacked) - 1)))
         u, v = bary[:, 0].reshape(shape), bary[:, 1].reshape(shape)
         # corner by corner, in place: (n, 3, ...) gathers of a frame's hits do not fit in cache
@@ -153,12 +153,14 @@ class LayeredScene:
             keep = ~uncovered.occluded(o, d, max_dist=dist)
             if keep.any():
                 # of the rest, those with nothing on the way but poke-throughs are not blocked
-                free = self._clear_past_pokes(o[keep], d[keep], dist[keep], own[keep])
-                out[ask[keep][free]] = False
-                keep[keep] = ~free
+                kept = np.flatnonzero(keep)
+                free = self._clear_past_pokes(rows(o, kept), rows(d, kept), dist[kept], own[kept])
+                out[ask[kept[free]]] = False
+                keep[kept[free]] = False
             if not keep.any():
                 return out
-            ask, o, d, dist, own = ask[keep], o[keep], d[keep], dist[keep], own[keep]
+            keep = np.flatnonzero(keep)
+            ask, o, d, dist, own = ask[keep], rows(o, keep), rows(d, keep), dist[keep], own[keep]
         travelled = np.zeros(len(ask))
         # rays whose first hit needs the layered test, from every round: traced on in one batch
         # at the end (the layered loop's rounds cost as much for a few rays as for many)
@@ -171,7 +173,7 @@ class LayeredScene:
             poke = hits.hit & (layer >= 0) & (layer < own)
             if poke.any():
                 ids = np.flatnonzero(poke)
-                reach = self.probe_at(obj[ids], face[ids], hits.bary[ids])
+                reach = self.probe_at(obj[ids], face[ids], rows(hits.bary, ids))
                 poke[ids] = travelled[ids] + hits.t[ids] <= reach
             out[ask[~hits.hit]] = False
             # a hit nothing is worn over (the outermost layer, props) blocks; one on a layer that
@@ -180,12 +182,15 @@ class LayeredScene:
             out[ask[rest & ~self._has_cover[layer]]] = True
             check = rest & self._has_cover[layer]
             if check.any():
-                pending.append((ask[check], o[check], d[check], dist[check], hits.t[check], hits.face[check],
-                                hits.bary[check]))
+                check = np.flatnonzero(check)
+                pending.append((ask[check], rows(o, check), rows(d, check), dist[check], hits.t[check],
+                                hits.face[check], rows(hits.bary, check)))
             if not poke.any():
                 break
+            poke = np.flatnonzero(poke)
             step = hits.t[poke] + self.eps
-            ask, o, d, own = ask[poke], o[poke] + d[poke] * step[:, None], d[poke], own[poke]
+            d = rows(d, poke)
+            ask, o, own = ask[poke], rows(o, poke) + d * step[:, None], own[poke]
             dist, travelled = dist[poke] - step, travelled[poke] + step
         else:
             out[ask] = False
@@ -210,8 +215,8 @@ class LayeredScene:
                 continue
             go = np.flatnonzero(own == layer)
             if higher is not None:
-                go = go[~higher.occluded(o[go], d[go], max_dist=dist[go])]
-            free[go] = ~self.scene.occluded(o[go], d[go], max_dist=dist[go], min_dist=shortest)
+                go = go[~higher.occluded(rows(o, go), rows(d, go), max_dist=dist[go])]
+            free[go] = ~self.scene.occluded(rows(o, go), rows(d, go), max_dist=dist[go], min_dist=shortest)
         return free
 
     def _poke_bounds(self, layer):
@@ -265,8 +270,8 @@ class LayeredScene:
                            np.zeros(0, bool), 0)
         result = None
         # Each round traces only the rays still going on past an ignored hit, as their own
-        # compact arrays (``rows``: which rays they are; None in the first round, all of them).
-        rows = None
+        # compact arrays (``live``: which rays they are; None in the first round, all of them).
+        live = None
         travelled = 0.0  # how far each live ray's origin has moved on
         cover = None  # (t, face, bary) of the covering layer met just behind an ignored hit
         for _ in range(max_skips + 1):
@@ -294,21 +299,22 @@ class LayeredScene:
                     result.t[again], result.obj[again], result.face[again], result.bary[again] = np.inf, -1, -1, 0.0
             else:
                 shown = np.flatnonzero(~rejected)  # integer takes: boolean ones of (n, 2) rows are slower
-                done = rows[shown]
+                done = live[shown]
                 result.t[done], result.obj[done], result.face[done] = t[shown], obj[shown], face[shown]
                 result.bary[done] = hits.bary[shown]  # (0, 0) on a miss already
             if not len(again):
                 break
-            rows = again if rows is None else rows[again]
-            result.fixed[rows] = True
+            live = again if live is None else live[again]
+            result.fixed[live] = True
             result.skipped += len(again)
             # go on from the ignored hit
             step = hits.t[again]
-            o, d = o[again] + d[again] * step[:, None], d[again]
+            d = rows(d, again)
+            o = rows(o, again) + d * step[:, None]
             travelled = (travelled[again] if np.ndim(travelled) else travelled) + step
             lo = np.full(len(again), self.eps)
             if cover is not None:
-                cover = tuple(x[again] for x in cover)
+                cover = tuple(rows(x, again) for x in cover)
         return result
 
     def _rejected(self, o, d, hits, obj, face):
@@ -325,31 +331,34 @@ class LayeredScene:
             cand = cand_all[by_layer == layer]
             if not len(cand):
                 continue
-            p = o[cand] + d[cand] * hits.t[cand, None]
+            p = rows(o, cand) + rows(d, cand) * hits.t[cand, None]
             # a probe cannot reach what is worn over the layer from farther than its reach
             box, most, inside = self._cover_box[layer]
             if not inside:
                 near = _box_distance(p, box) <= most
                 if not near.all():
-                    cand, p = cand[near], p[near]
+                    near = np.flatnonzero(near)
+                    cand, p = cand[near], rows(p, near)
                     if not len(cand):
                         continue
             scene = self._cover(layer)
-            g, reach = self._probe_frame(obj[cand], face[cand], hits.bary[cand])
+            g, reach = self._probe_frame(obj[cand], face[cand], rows(hits.bary, cand))
             # a probe from just outside: a higher layer at the same place is in front
             start = p + g * self.offset
             covered = scene.occluded(start, -g, max_dist=reach + self.offset)
             rejected[cand] = covered
             if not covered.any():
                 continue
-            c = cand[covered]
+            at = np.flatnonzero(covered)
+            c, dc = cand[at], rows(d, cand[at])
             # only a covering layer within the skip distance: the next round meets anything
             # farther. Short occlusion rays first, as layers rarely coincide.
-            back = p[covered] - d[c] * self.eps
-            close = scene.occluded(back, d[c], max_dist=3 * self.eps)
+            back = rows(p, at) - dc * self.eps
+            close = scene.occluded(back, dc, max_dist=3 * self.eps)
             if close.any():
-                c, back = c[close], back[close]
-                again_hits = scene.intersect(back, d[c], max_dist=3 * self.eps)
+                close = np.flatnonzero(close)
+                c, back, dc = c[close], rows(back, close), rows(dc, close)
+                again_hits = scene.intersect(back, dc, max_dist=3 * self.eps)
                 if cover is None:
                     cover = (np.full(len(o), np.inf), np.full(len(o), -1), np.zeros((len(o), 2)))
                 cover[0][c] = np.where(again_hits.hit, np.maximum(again_hits.t - self.eps, 0.0), np.inf)
