@@ -13,6 +13,7 @@ from scipy.spatial import cKDTree
 from .correspondence import closest_point_on_triangles, incident_triangles, local_radius, surface_search, vertex_normals
 from .keys import digest
 from .rays import RayScene
+from .scene_cache import forget_scenes
 from .topology import topology_of, vertex_adjacency
 from .vectors import box, norms, rows
 
@@ -182,11 +183,12 @@ def _nbytes(value) -> int:
 
 
 def forget_garments() -> None:
-    """Drop what was kept of every garment (the bodies' own facts stay): resolving garments
-    after it costs what newly draped garments on a known body cost."""
+    """Drop what was kept of every garment (the bodies' own facts stay), their ray scenes too:
+    resolving garments after it costs what newly draped garments on a known body cost."""
     for facts in list(_kept.values()):
         with facts._prepared_lock:
             facts._prepared.clear()
+    forget_scenes()
 
 
 def part_junctions(vertices, faces, segment):

@@ -73,7 +73,7 @@ class GarmentPrep:
         # arrays: resolving the same garments again (a setting changed) finds it kept on the body.
         self._stage_key = digest(body_seg, l_seg, links, np.array([local_probe, one_part, margin]),
                                  np.array(repr(scheme)))
-        self._keys, self._held = {}, {}
+        self._keys, self._held, self._contents = {}, {}, {}
         # Closer, before the body search: garments whose reach, bounded by the normals of the body
         # near them, meets no other's skip the search too (sleeves at separate heights). Not with a
         # scheme: a skirt takes its normals off a hull instead. A kept garment's normals are known:
@@ -99,11 +99,17 @@ class GarmentPrep:
         if i not in self._keys:
             given = (self.given_normals[i], self.given_segments[i], self.given_corr[i])
             c = self.given_corr[i]
-            self._keys[i] = digest(np.frombuffer(self._stage_key, np.uint8), *self.garr[i],
+            self._keys[i] = digest(np.frombuffer(self._stage_key, np.uint8), np.frombuffer(self.content(i), np.uint8),
                                    np.array([x is None for x in given]),
                                    *(np.asarray(x) for x in given[:2] if x is not None),
                                    *((c.triangle, c.bary) if c is not None else ()))
         return self._keys[i]
+
+    def content(self, i):
+        """A digest of garment i's vertices and faces as they came."""
+        if i not in self._contents:
+            self._contents[i] = digest(*self.garr[i])
+        return self._contents[i]
 
     def kept(self, i):
         """Garment i's kept pre-processing, asked once: keeping another's may drop it after."""

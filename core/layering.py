@@ -22,7 +22,9 @@ from .body_guard import back_off
 from .correspondence import BodyCorrespondence
 from .garment_prep import GarmentPrep
 from .hidden_faces import crossing_faces
+from .keys import digest
 from .rays import RayScene, SceneUnion, step_past_hit
+from .scene_cache import kept_scene
 from .segmentation import get_scheme
 from .topology import path_distance, topology_of
 from .vectors import box, norms, rows
@@ -123,13 +125,24 @@ class _SegmentScenes:
     not meet are passed over (a few rays, near part borders), which costs far less than a
     BVH per segment, most of whose triangles several segments share."""
 
-    def __init__(self, vertices, layout):
-        self.vertices, self.layout = vertices, layout
+    def __init__(self, vertices, layout, key=None):
+        """``key``: a digest of the layer's vertices and faces as they came, under which its scenes
+        are kept between resolves (core.scene_cache); None once it has moved."""
+        self.vertices, self.layout, self.key = vertices, layout, key
         self.faces, self.face_segment = layout.faces, layout.face_segment
         self._full = None
         self._bounds = None
         self._face_box = None
-        self.built = 0
+        self.built = self.kept = 0
+
+    def _scene(self, faces, which):
+        if self.key is None:
+            self.built += 1
+            return RayScene(self.vertices, faces)
+        scene, was_kept = kept_scene((self.key, which), self.vertices, faces)
+        self.kept += was_kept
+        self.built += not was_kept
+        return scene
 
     def built_full(self):
         """The scene over all of the layer's triangles if one was built, else None."""
@@ -138,8 +151,7 @@ class _SegmentScenes:
     def full(self):
         """One scene over all of the layer's triangles."""
         if self._full is None:
-            self._full = RayScene(self.vertices, self.faces)
-            self.built += 1
+            self._full = self._scene(self.faces, "all")
         return self._full
 
     def _face_boxes(self):
@@ -187,8 +199,8 @@ class _SegmentScenes:
             return None
         if keep.sum() * 2 > len(self.faces) or self._full is not None:
             return self.full(), None
-        self.built += 1
-        return RayScene(self.vertices, self.faces[ids[keep]]), ids[keep]
+        ids = ids[keep]
+        return self._scene(rows(self.faces, ids), digest(ids)), ids
 
     def bounds_overlap(self, segment, lo, hi):
         """Whether the box of the triangles rays of ``segment`` may meet overlaps lo..hi."""
@@ -412,7 +424,9 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         without any work, the body search included. What a resolve finds for a garment
         before moving anything (body points, global normals, parts) is kept with the body's
         facts under the content of all it came from: resolving the same garments again with
-        another offset, falloff or stage switch skips it (stats["garments_kept"]).
+        another offset, falloff or stage switch skips it (stats["garments_kept"]), and the
+        ray scenes of the garments as they came are kept too (core.scene_cache,
+        stats["scenes_kept"]): a layer nothing moves builds no BVH the next time.
     body_segments: optional int per body vertex (body part ids); garment vertices take
         the part of their nearest body point and only meet triangles of the same part.
         Without it, each connected piece of the body mesh is a part.
@@ -542,7 +556,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         topo[i] = topology_of(faces[i], len(verts[i]))
         edges[i], hems[i] = topo[i].edges, topo[i].hem_vertices
         layouts[i] = _LayerLayout(faces[i], _face_segment(faces[i], vseg[i]), links)
-        scenes[i] = _SegmentScenes(verts[i], layouts[i])
+        scenes[i] = _SegmentScenes(verts[i], layouts[i], prep.content(i))
     rays = {"boundary": 0, "push": 0, "hidden": 0}
     moved_by = {"boundary": 0, "push": 0}
 
@@ -581,7 +595,12 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         clearance[k][idx] -= out
         return out
 
+    built_before_moves = kept_before_moves = 0
+
     def refresh(i):
+        nonlocal built_before_moves, kept_before_moves
+        built_before_moves += scenes[i].built
+        kept_before_moves += scenes[i].kept
         scenes[i] = _SegmentScenes(verts[i], layouts[i])
 
     def tuck_under_hems(k):
@@ -704,7 +723,8 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         "faces_removed": int(sum(r.sum() for r in removed)),
         "vertices_far_from_body": prep.far,
         "vertices_on_part_borders": int(sum((vseg2[i][:, 1] >= 0).sum() for i in active)),
-        "scenes_built": sum(scenes[i].built for i in active),
+        "scenes_built": sum(scenes[i].built for i in active) + built_before_moves,
+        "scenes_kept": sum(scenes[i].kept for i in active) + kept_before_moves,
         "garments_traced": len(active),
         "garments_kept": len(prep.reused),  # pre-processing found in an earlier resolve of the same garment
     }
