@@ -2,6 +2,7 @@
 
 import bpy
 
+from ..core.body_facts import forget_garments
 from ..operators import jellyfish as jellyfish_ops
 from ..operators import layering, tagging
 from . import cli, frame_handler, panels, preferences, properties, render_engine
@@ -28,3 +29,4 @@ def unregister():
     cli.unregister()
     properties.detach()
     _unregister_classes()
+    forget_garments()  # what resolves kept of garments, their ray scenes too: Embree memory back

@@ -35,9 +35,13 @@ def test_installed_from_zip_not_from_checkout(extension):
     assert extension.core.rays.HAVE_EMBREE
 
 
-def test_register_unregister_register_leaves_nothing_behind(clean_scene):
+def test_register_unregister_register_leaves_nothing_behind(clean_scene, extension):
+    cache = extension.core.scene_cache
+    cache.kept_scene(b"a garment as it came", np.eye(3), np.array([[0, 1, 2]]))  # what a resolve keeps
+    assert cache.kept_bytes() > 0
     assert bpy.ops.preferences.addon_disable(module=MODULE) == {"FINISHED"}
     try:
+        assert cache.kept_bytes() == 0  # disabling the add-on gives the kept ray scenes back
         assert not hasattr(bpy.types.Object, "deformrt")
         assert not hasattr(bpy.types.Scene, "deformrt")
         for name in ("DEFORMRT_PT_layers", "DEFORMRT_OT_tag_body", "DEFORMRT_OT_move_layer"):
