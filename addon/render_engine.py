@@ -11,6 +11,9 @@ followed). Light strengths are divided by pi on the way in, so the seed's Lamber
 times N.L, no 1/pi) gives the radiance Cycles gives: a white surface facing a sun of strength 1
 is 1/pi.
 
+With Persistent Data on (Render Properties > Performance), the ray scenes of the last render are
+kept while the meshes stay the same, so the next render builds none.
+
 Passes: Combined; Depth and object index (the objects' pass_index) when the view layer asks for
 them, written as Cycles writes them; and "DeformRT Fixed", 1 where layered tracing changed what
 a pixel shows (for compositing or checking a scene).
@@ -165,8 +168,40 @@ def _meshes(depsgraph):
                                       a.n_polygons, m, a.triangle_material, a.triangle_uv, normals), True, mats
 
 
+# With the scene's Persistent Data on (Render Properties > Performance, as Cycles has it), the
+# last frame's ray scenes (the BVHs, what is worn over each layer) are kept for the next render
+# of the same meshes: look-development renders of a still pose build nothing again.
+_persistent = {"key": None, "scene": None}
+
+
+def _scene_key(objects, layers, normals, probe, offset):
+    """A digest of all a LayeredScene is made from."""
+    parts = [np.array([float(offset)]), np.array([-1 if lay is None else lay for lay in layers])]
+    probes = probe if isinstance(probe, (list, tuple)) else [probe] * len(objects)
+    for (v, f), n, p in zip(objects, normals, probes, strict=True):
+        parts += [v, f, np.zeros(0) if n is None else n, np.full(1, np.nan) if p is None else np.atleast_1d(p)]
+    return digest(*parts)
+
+
+def layered_scene(objects, layers, normals, probe, offset, keep=False):
+    """(LayeredScene, whether it was kept from the last render): with ``keep``, the last one if it
+    was made from the same arrays, else a new one kept in its place; without, a new one, and
+    nothing is held."""
+    if not keep:
+        _persistent.update(key=None, scene=None)
+        return LayeredScene(objects, layers, normals, probe_distance=probe, offset=offset), False
+    key = _scene_key(objects, layers, normals, probe, offset)
+    if _persistent["key"] == key:
+        return _persistent["scene"], True
+    _persistent.update(key=None, scene=None)  # the old scene's memory goes before the new one's comes
+    made = LayeredScene(objects, layers, normals, probe_distance=probe, offset=offset)
+    _persistent.update(key=key, scene=made)
+    return made, False
+
+
 def scene_arrays(depsgraph, layered=True):
-    """(LayeredScene, materials, face slots, face UVs, corner normals, pass indices) of the meshes
+    """(LayeredScene, materials, face slots, face UVs, corner normals, pass indices, whether the
+    LayeredScene was kept from the last render: ``layered_scene``) of the meshes
     the depsgraph shows, in world space: per object the Materials of its slots, each triangle's
     slot, for textured materials its corners' UVs, its corners' shading normals as Blender
     gives them (None for a mesh smooth all over), and its pass index. Instances are drawn as
@@ -200,8 +235,9 @@ def scene_arrays(depsgraph, layered=True):
         top = max((lay for lay in layers if lay is not None), default=0)
         probe = body_probes(objects, layers, probe_distances(settings, parts is not None), parts, scheme,
                             traced=[lay is not None and lay < top for lay in layers])
-    return (LayeredScene(objects, layers, normals, probe_distance=probe, offset=settings.offset), materials, slots,
-            uvs, shading, pass_index)
+    made, kept = layered_scene(objects, layers, normals, probe, settings.offset,
+                               keep=depsgraph.scene.render.use_persistent_data)
+    return made, materials, slots, uvs, shading, pass_index, kept
 
 
 def body_probes(objects, layers, given=None, parts=None, scheme=None, traced=None):
@@ -300,7 +336,8 @@ class FrameTracer:
         scene = depsgraph.scene
         settings = scene.deformrt
         t0 = time.perf_counter()
-        self.scene, materials, slots, uvs, shading, self.pass_index = scene_arrays(depsgraph, settings.render_layered)
+        self.scene, materials, slots, uvs, shading, self.pass_index, self.kept = scene_arrays(
+            depsgraph, settings.render_layered)
         self.surfaces = Surfaces.build(self.scene, materials, slots, uvs, shading)  # once for every band
         self.seconds = {"read_build_s": time.perf_counter() - t0, "trace_s": 0.0}
         m = np.array(scene.camera.matrix_world)
@@ -344,6 +381,7 @@ class DEFORMRT_PT_layered_render(bpy.types.Panel):
         layout.prop(settings, "render_area_samples")
         layout.prop(settings, "probe_distance")
         layout.prop(settings, "offset")
+        layout.prop(context.scene.render, "use_persistent_data")  # Blender's own switch, as Cycles shows it
 
 
 class DEFORMRT_RE_layered(bpy.types.RenderEngine):
@@ -372,6 +410,8 @@ class DEFORMRT_RE_layered(bpy.types.RenderEngine):
         self.update_stats("", "DeformRT: reading the scene")
         try:
             tracer = FrameTracer(depsgraph, w, h)
+            if tracer.kept:
+                self.update_stats("", "DeformRT: ray scenes kept from the last render (Persistent Data)")
         except ValueError as exc:  # meshes or settings it cannot trace: say so, not a blank frame
             self.report({"ERROR"}, f"DeformRT Layered: {exc}")
             self.end_result(self.begin_result(0, 0, w, h))
@@ -420,6 +460,7 @@ def register():
 
 
 def unregister():
+    _persistent.update(key=None, scene=None)
     for panel in _panels():
         panel.COMPAT_ENGINES.discard(DEFORMRT_RE_layered.bl_idname)
     bpy.utils.unregister_class(DEFORMRT_PT_layered_render)

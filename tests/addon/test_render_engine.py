@@ -509,3 +509,33 @@ def test_a_flat_shaded_cube_shows_flat_faces(studio, clean_scene, tmp_path):
     cube.data.update()
     top = _render(studio, scene, tmp_path, size=(size, size))[15:26, 15:26, 0]
     np.testing.assert_allclose(top, 2 * np.cos(np.radians(30)) / np.pi, rtol=1e-5)
+
+
+def test_persistent_data_keeps_the_ray_scenes_while_the_meshes_stay_the_same(extension, studio, clean_scene,
+                                                                            tmp_path, monkeypatch):
+    """With Blender's Persistent Data on, a second render of the same meshes builds no ray scene and
+    shows the same picture; a mesh that moved is built again; with it off nothing is kept."""
+    engine = importlib.import_module(f"{extension.__name__}.addon.render_engine")
+    made = []
+    real = engine.LayeredScene
+
+    def counting(*args, **kwargs):
+        made.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(engine, "LayeredScene", counting)
+    scene = _engine(clean_scene)
+    _stage(scene)
+    _garment_pair(scene)
+    scene.render.use_persistent_data = True
+    first = _render(studio, scene, tmp_path)
+    again = _render(studio, scene, tmp_path)
+    assert len(made) == 1 and engine._persistent["scene"] is not None
+    np.testing.assert_array_equal(again, first)
+    shirt = bpy.data.objects["Shirt"]
+    shirt.location.x += 0.3  # the shirt's evaluated mesh moves in world space: a new scene
+    moved = _render(studio, scene, tmp_path)
+    assert len(made) == 2 and not np.array_equal(moved, first)
+    scene.render.use_persistent_data = False
+    _render(studio, scene, tmp_path)
+    assert len(made) == 3 and engine._persistent["scene"] is None
