@@ -14,13 +14,12 @@ import time
 
 import numpy as np
 import trimesh
-from scipy import sparse
-from scipy.spatial import cKDTree
 
 from .body_facts import body_facts
 from .body_guard import back_off
 from .correspondence import BodyCorrespondence
 from .garment_prep import GarmentPrep
+from .gaussian_peak import largest_gaussian
 from .hidden_faces import crossing_faces
 from .keys import digest
 from .rays import RayScene, SceneUnion, step_past_hit
@@ -406,13 +405,8 @@ def _spread_from_hits(vertices, faces, topology, hit_points, amplitude, seed_ver
     limit = np.sqrt(2.0) * reach + float(corner_gap.max(initial=0.0))
     over_cloth = path_distance(topology.adjacency, length[topology.adjacency_edge], seed_vertices, limit)
     candidates = np.flatnonzero(np.isfinite(over_cloth))
-    # the "ndarray" form keeps pairs at distance 0 (a hit exactly on a vertex)
-    pairs = cKDTree(hit_points).sparse_distance_matrix(cKDTree(vertices[candidates]), reach, output_type="ndarray")
-    w = amplitude[pairs["i"]] * np.exp(-(pairs["v"] ** 2) / (2 * c * c))
-    # each vertex's largest weight (all >= 0), as a sparse row maximum: np.maximum.at is 2-3x slower
-    per_pair = sparse.csr_matrix((w, (pairs["j"], pairs["i"])), shape=(len(candidates), len(hit_points)))
     out = np.zeros(len(vertices))
-    out[candidates] = per_pair.max(axis=1).toarray().ravel()
+    out[candidates] = largest_gaussian(vertices[candidates], hit_points, amplitude, c, reach)
     return out
 
 
