@@ -22,43 +22,22 @@ def largest_gaussian(points: np.ndarray, centres: np.ndarray, amplitude: np.ndar
     if not len(points) or not keep.any():
         return out
     h, a = centres[keep], amplitude[keep]
-    tree = cKDTree(h)
-    near, _ = tree.query(points, distance_upper_bound=np.nextafter(reach, np.inf))
-    ask = np.flatnonzero(near <= reach)  # the rest is beyond every bump's reach
     lift = np.sqrt(2.0 * c * c * (np.log(a.max()) - np.log(a)))
-    # a best bump within reach is no farther in four dimensions than this: the bound prunes the search
+    # a bump within reach is no farther in four dimensions than this: the bound prunes the search,
+    # and a point it leaves without any has no bump within reach
     bound = np.nextafter(np.sqrt(reach * reach + lift.max() ** 2), np.inf)
-    _, best = cKDTree(np.column_stack([h, lift])).query(np.column_stack([points[ask], np.zeros(len(ask))]),
-                                                          distance_upper_bound=bound)
+    _, best = cKDTree(np.column_stack([h, lift])).query(np.column_stack([points, np.zeros(len(points))]),
+                                                          distance_upper_bound=bound, workers=-1)
     found = best < len(h)
-    gap = np.full(len(ask), np.inf)
-    gap[found] = norms(points[ask[found]] - h[best[found]])
-    inside = gap <= reach
-    out[ask[inside]] = a[best[inside]] * np.exp(-(gap[inside] ** 2) / (2 * c * c))
-    # where the best bump lies beyond reach, the truncated maximum is another bump's: asked pair by pair
-    far = ask[~inside]
-    if len(far):
-        pairs = tree.sparse_distance_matrix(cKDTree(points[far]), reach, output_type="ndarray")
-        w = a[pairs["i"]] * np.exp(-(pairs["v"] ** 2) / (2 * c * c))
-        # each point's largest weight (all >= 0), as a sparse row maximum: np.maximum.at is 2-3x slower
-        per_pair = sparse.csr_matrix((w, (pairs["j"], pairs["i"])), shape=(len(far), len(h)))
-        out[far] = per_pair.max(axis=1).toarray().ravel()
-    return out
-    h, a = centres[keep], amplitude[keep]
-    lift = np.sqrt(2.0 * c * c * (np.log(a.max()) - np.log(a)))
-    _, best = cKDTree(np.column_stack([h, lift])).query(np.column_stack([points, np.zeros(len(points))]))
-    gap = norms(points - h[best])
+    gap = np.full(len(points), np.inf)
+    gap[found] = norms(points[found] - h[best[found]])
     inside = gap <= reach
     out[inside] = a[best[inside]] * np.exp(-(gap[inside] ** 2) / (2 * c * c))
-    # where the best bump lies beyond reach, the truncated maximum is another bump's: asked pair by
-    # pair, only of points with some centre within reach
-    tree = cKDTree(h)
-    far = np.flatnonzero(~inside)
+    # where the best bump lies beyond reach, the truncated maximum is another bump's (or none):
+    # asked pair by pair
+    far = np.flatnonzero(found & ~inside)
     if len(far):
-        near, _ = tree.query(points[far], distance_upper_bound=np.nextafter(reach, np.inf))
-        far = far[near <= reach]
-    if len(far):
-        pairs = tree.sparse_distance_matrix(cKDTree(points[far]), reach, output_type="ndarray")
+        pairs = cKDTree(h).sparse_distance_matrix(cKDTree(points[far]), reach, output_type="ndarray")
         w = a[pairs["i"]] * np.exp(-(pairs["v"] ** 2) / (2 * c * c))
         # each point's largest weight (all >= 0), as a sparse row maximum: np.maximum.at is 2-3x slower
         per_pair = sparse.csr_matrix((w, (pairs["j"], pairs["i"])), shape=(len(far), len(h)))
