@@ -102,20 +102,27 @@ def _per_garment(value, n, name):
 
 class _LayerLayout:
     """What a layer's scenes need that moving its vertices does not change: each triangle's
-    segment, which segments rays of each segment may meet, the triangles grouped by segment."""
+    segment, which segments rays of each segment may meet, the corners grouped by segment."""
 
     def __init__(self, faces, face_segment, links):
         self.faces, self.face_segment, self.links = faces, face_segment, links
-        self._groups = None
+        self._groups = self._columns = None
 
     def groups(self):
-        """(face order grouping the triangles by segment, where each group starts, its segment)."""
+        """(every triangle's corners, triangle by triangle grouped by segment; where each
+        group's corners start; its segment)."""
         if self._groups is None:
             order = np.argsort(self.face_segment, kind="stable")
             seg = self.face_segment[order]
             starts = np.flatnonzero(np.r_[True, seg[1:] != seg[:-1]]) if len(seg) else np.zeros(0, np.int64)
-            self._groups = order, starts, seg[starts]
+            self._groups = rows(self.faces, order).ravel(), 3 * starts, seg[starts]
         return self._groups
+
+    def columns(self):
+        """Each corner's vertex ids, contiguous: a gather by a strided column is slower."""
+        if self._columns is None:
+            self._columns = [np.ascontiguousarray(self.faces[:, k]) for k in range(3)]
+        return self._columns
 
 
 class _SegmentScenes:
@@ -156,7 +163,7 @@ class _SegmentScenes:
     def _face_boxes(self):
         if self._face_box is None:
             # corner by corner: a reduction over an axis of length 3 is several times slower
-            a, b, c = (rows(self.vertices, self.faces[:, i]) for i in range(3))
+            a, b, c = (rows(self.vertices, corner) for corner in self.layout.columns())
             self._face_box = (np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c))
         return self._face_box
 
@@ -206,11 +213,13 @@ class _SegmentScenes:
         if self._bounds is None:
             # each part's own box once; a segment's is the union of its linked parts'
             self._bounds = np.full((len(self.layout.links), 2, 3), np.nan)
-            order, starts, seg = self.layout.groups()
-            if len(order):
-                face_lo, face_hi = self._face_boxes()
-                self._bounds[seg, 0] = np.minimum.reduceat(rows(face_lo, order), starts, axis=0)
-                self._bounds[seg, 1] = np.maximum.reduceat(rows(face_hi, order), starts, axis=0)
+            corners, starts, seg = self.layout.groups()
+            if len(corners):
+                # column by column: a reduction over (n, 3) rows is slower
+                for axis in range(3):
+                    at = self.vertices[:, axis][corners]
+                    self._bounds[seg, 0, axis] = np.minimum.reduceat(at, starts)
+                    self._bounds[seg, 1, axis] = np.maximum.reduceat(at, starts)
         boxes = self._bounds[self.layout.links[segment]]
         boxes = boxes[~np.isnan(boxes[:, 0, 0])]
         return bool(len(boxes)) and bool((boxes[:, 0].min(0) <= hi).all() and (boxes[:, 1].max(0) >= lo).all())
