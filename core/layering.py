@@ -125,6 +125,28 @@ class _LayerLayout:
         return self._columns
 
 
+def _voxel_near(centres, cell, points):
+    """Which centres lie in a voxel (of side ``cell``) of some point, or next to one: all those
+    within ``cell`` of a point, and some farther. None where the voxels cannot be
+    numbered (a cell tiny against the spread of centres and points)."""
+    if not cell > 0:
+        return np.zeros(len(centres), dtype=bool)
+    p_lo, p_hi = box(points)
+    base = p_lo - 2 * cell  # every cell index of interest is >= 1
+    size = np.floor((np.maximum(p_hi, box(centres)[1]) - base) / cell).astype(np.int64) + 3
+    # beyond int64 key range the voxels would alias
+    if float(np.prod(size.astype(float))) >= 2.0**62:
+        return None
+
+    def key(q):
+        return (q[:, 0] * size[1] + q[:, 1]) * size[2] + q[:, 2]
+
+    cells = np.unique(np.floor((points - base) / cell).astype(np.int64), axis=0)
+    steps = np.stack(np.meshgrid(*[[-1, 0, 1]] * 3, indexing="ij"), -1).reshape(-1, 3)
+    near = np.unique(key((cells[:, None] + steps).reshape(-1, 3)))
+    return np.isin(key(np.clip(np.floor((centres - base) / cell).astype(np.int64), 0, size - 1)), near)
+
+
 class _SegmentScenes:
     """One layer's Embree scene, built on first use, and the boxes of what each segment's rays
     may meet. One scene serves every segment: a ray's hits on triangles of a segment it may
@@ -172,35 +194,25 @@ class _SegmentScenes:
         of some point (at least those: a voxel grid of that size decides), when that is under
         half of the layer (built for one use); else (the full scene, None: its own face
         numbers). None if none is near."""
+        if not len(ids) or not len(points):
+            return None
+        # a sample of the triangles, from their own corners, decides first whether most of the
+        # layer is near (hems of a short garment reach all of it): then the full scene, without
+        # a box for every triangle
+        every = max(1, len(ids) // 2048)
+        if every > 1:
+            corners = [rows(self.vertices, rows(column, ids[::every])) for column in self.layout.columns()]
+            lo = np.minimum(np.minimum(*corners[:2]), corners[2])
+            hi = np.maximum(np.maximum(*corners[:2]), corners[2])
+            near = _voxel_near(0.5 * (lo + hi), reach + 0.5 * float(norms(hi - lo).max()), points)
+            if near is not None and near.mean() * len(ids) > 0.6 * len(self.faces):
+                return self.full(), None
         lo, hi = self._face_boxes()
         if len(ids) < len(self.faces):  # ids are sorted and distinct: fewer names a subset
             lo, hi = rows(lo, ids), rows(hi, ids)
-        centre = 0.5 * (lo + hi)
-        cell = reach + 0.5 * float(norms(hi - lo).max(initial=0.0))
-        keep = np.zeros(len(ids), dtype=bool)
-        if cell > 0 and len(ids) and len(points):
-            p_lo, p_hi = box(points)
-            base = p_lo - 2 * cell  # every cell index of interest is >= 1
-            size = np.floor((np.maximum(p_hi, box(centre)[1]) - base) / cell).astype(np.int64) + 3
-            # beyond int64 key range (a reach tiny against the layer) the voxels would alias
-            if float(np.prod(size.astype(float))) < 2.0**62:
-                def key(q):
-                    return (q[:, 0] * size[1] + q[:, 1]) * size[2] + q[:, 2]
-
-                def near_of(c):
-                    return np.isin(key(np.clip(np.floor((c - base) / cell).astype(np.int64), 0, size - 1)), near)
-
-                cells = np.unique(np.floor((points - base) / cell).astype(np.int64), axis=0)
-                steps = np.stack(np.meshgrid(*[[-1, 0, 1]] * 3, indexing="ij"), -1).reshape(-1, 3)
-                near = np.unique(key((cells[:, None] + steps).reshape(-1, 3)))
-                # a sample decides first whether most of the layer is near (hems of a short
-                # garment reach all of it): then the full scene, without testing every triangle
-                every = max(1, len(ids) // 2048)
-                if every > 1 and near_of(centre[::every]).mean() * len(ids) > 0.6 * len(self.faces):
-                    return self.full(), None
-                keep = near_of(centre)
-            else:
-                keep[:] = True
+        keep = _voxel_near(0.5 * (lo + hi), reach + 0.5 * float(norms(hi - lo).max()), points)
+        if keep is None:
+            keep = np.ones(len(ids), dtype=bool)
         if not keep.any():
             return None
         if keep.sum() * 2 > len(self.faces) or self._full is not None:
