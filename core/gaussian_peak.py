@@ -37,6 +37,7 @@ def largest_gaussian(points: np.ndarray, centres: np.ndarray, amplitude: np.ndar
     # asked pair by pair
     far = np.flatnonzero(found & ~inside)
     if len(far):
+        # the "ndarray" form keeps pairs at distance 0 (a point exactly on a centre)
         pairs = cKDTree(h).sparse_distance_matrix(cKDTree(points[far]), reach, output_type="ndarray")
         w = a[pairs["i"]] * np.exp(-(pairs["v"] ** 2) / (2 * c * c))
         # each point's largest weight (all >= 0), as a sparse row maximum: np.maximum.at is 2-3x slower

@@ -58,3 +58,11 @@ def test_a_point_on_a_centre_takes_its_whole_amplitude():
     centres = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
     got = largest_gaussian(centres.copy(), centres, np.array([2.0, 0.5]), 0.1, 0.3)
     np.testing.assert_array_equal(got, [2.0, 0.5])
+
+
+def test_a_point_on_a_weak_centre_beside_a_strong_one_out_of_reach():
+    # the lifted search names the strong bump (0.35 away, beyond reach): the pairs must still see
+    # the weak one at distance 0
+    centres = np.array([[0.0, 0.0, 0.0], [0.35, 0.0, 0.0]])
+    got = largest_gaussian(centres[:1].copy(), centres, np.array([1e-6, 1.0]), 0.1, 0.3)
+    np.testing.assert_array_equal(got, [1e-6])
