@@ -304,8 +304,14 @@ def _trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, 
         near = [s for s in ray_segments if layer_scenes[k].bounds_overlap(s, *box_of[s])]
         if near:
             boxes = np.array([box_of[s] for s in near])
-            plan.append((k, rows_of[near[0]] if len(near) == 1 else np.flatnonzero(_either_column(np.isin(segs, near))),
-                         boxes[:, 0].min(0), boxes[:, 1].max(0)))
+            if len(near) == 1:
+                idx = rows_of[near[0]]
+            else:
+                # a table lookup, where isin sorts every ray's segments; -1 (none) reads the last, False
+                listed = np.zeros(len(links) + 1, dtype=bool)
+                listed[near] = True
+                idx = np.flatnonzero(_either_column(listed[segs]))
+            plan.append((k, idx, boxes[:, 0].min(0), boxes[:, 1].max(0)))
     if not cull and len(plan) > 1:
         t0 = time.perf_counter()
         meets, asked = _meeting_any(origins, directions, max_dist, plan, layer_scenes)
