@@ -6,7 +6,7 @@ import numpy as np
 
 from .rays import RayScene
 from .topology import edges_with_counts
-from .vectors import rows
+from .vectors import norms, rows
 
 
 def unique_edges(faces) -> np.ndarray:
@@ -25,8 +25,10 @@ def crossing_edges(vertices_a, faces_a, scene_b: RayScene, edges=None) -> np.nda
         return np.zeros(0, dtype=bool)
     start = rows(v, e[:, 0])
     vec = rows(v, e[:, 1]) - start
-    length = np.linalg.norm(vec, axis=1)
+    length = norms(vec)
     ok = length > 0
+    if ok.all():  # as a rule: masked copies of every edge's rows cost more than the test of a few
+        return scene_b.occluded(start, vec, max_dist=length)
     out = np.zeros(len(e), dtype=bool)
     out[ok] = scene_b.occluded(start[ok], vec[ok], max_dist=length[ok])
     return out
