@@ -15,7 +15,7 @@ from .body_facts import frozen
 from .correspondence import BodyCorrespondence, closest_on_table, nearest_on_surface, triangle_table
 from .keys import digest
 from .segmentation import hull_normals, is_skirt, skirt_segments
-from .topology import topology_of
+from .topology import faces_key, topology_of
 from .vectors import box, norms, rows
 
 
@@ -73,7 +73,7 @@ class GarmentPrep:
         # arrays: resolving the same garments again (a setting changed) finds it kept on the body.
         self._stage_key = digest(body_seg, l_seg, links, np.array([local_probe, one_part, margin]),
                                  np.array(repr(scheme)))
-        self._keys, self._held, self._contents = {}, {}, {}
+        self._keys, self._held, self._contents, self._face_keys = {}, {}, {}, {}
         # Closer, before the body search: garments whose reach, bounded by the normals of the body
         # near them, meets no other's skip the search too (sleeves at separate heights). Not with a
         # scheme: a skirt takes its normals off a hull instead. A kept garment's normals are known:
@@ -105,10 +105,16 @@ class GarmentPrep:
                                    *((c.triangle, c.bary) if c is not None else ()))
         return self._keys[i]
 
+    def faces_key(self, i):
+        """Garment i's faces_key (its faces are hashed once for its topology and its content)."""
+        if i not in self._face_keys:
+            self._face_keys[i] = faces_key(self.garr[i][1])
+        return self._face_keys[i]
+
     def content(self, i):
         """A digest of garment i's vertices and faces as they came."""
         if i not in self._contents:
-            self._contents[i] = digest(*self.garr[i])
+            self._contents[i] = digest(self.garr[i][0], np.frombuffer(self.faces_key(i), np.uint8))
         return self._contents[i]
 
     def kept(self, i):
@@ -198,7 +204,7 @@ class GarmentPrep:
         # distance is 1-Lipschitz: the distance to the body point bounds the distance to the
         # body from below, unless the vertex is inside it (behind its body point's normal)
         clearance = np.where(np.einsum("ij,ij->i", v - c.points(bv, bf), at_body) < 0, np.inf, c.distance)
-        e = topology_of(f, len(v)).edges
+        e = topology_of(f, len(v), key=self.faces_key(i)).edges
         mean_edge = float(norms(rows(v, e[:, 0]) - rows(v, e[:, 1])).mean()) if len(e) else 0.0
         return Prepared(c, clearance, n, s, np.column_stack([s, border]), lv, skirt, far, mean_edge)
 

@@ -574,7 +574,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     # and kept for the next frame of the same garments.
     topo, edges, hems, layouts, scenes, clearance, unbounded = ([None] * n_g for _ in range(7))
     for i in active:
-        topo[i] = topology_of(faces[i], len(verts[i]))
+        topo[i] = topology_of(faces[i], len(verts[i]), key=prep.faces_key(i))
         edges[i], hems[i] = topo[i].edges, topo[i].hem_vertices
         layouts[i] = _LayerLayout(faces[i], _face_segment(faces[i], vseg[i]), links)
         scenes[i] = _SegmentScenes(verts[i], layouts[i], prep.content(i))

@@ -122,10 +122,16 @@ class MeshTopology:
 _topologies: dict = {}
 
 
-def topology_of(faces: np.ndarray, n_vertices: int, keep: int = 16) -> MeshTopology:
-    """The MeshTopology of ``faces``, remembered across calls (by content) for the last few."""
+def faces_key(faces: np.ndarray) -> bytes:
+    """The content key of a triangle list, as topology_of files its topology under."""
+    return digest(np.ascontiguousarray(faces, dtype=np.int64))
+
+
+def topology_of(faces: np.ndarray, n_vertices: int, keep: int = 16, key: bytes | None = None) -> MeshTopology:
+    """The MeshTopology of ``faces``, remembered across calls (by content) for the last few.
+    ``key``: faces_key(faces), when the caller has it already."""
     f = np.ascontiguousarray(faces, dtype=np.int64)
-    key = (n_vertices, digest(f))
+    key = (n_vertices, faces_key(f) if key is None else key)
     found = _topologies.pop(key, None)
     if found is None:
         found = MeshTopology(f, n_vertices)
