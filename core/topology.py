@@ -130,11 +130,10 @@ def faces_key(faces: np.ndarray) -> bytes:
 def topology_of(faces: np.ndarray, n_vertices: int, keep: int = 16, key: bytes | None = None) -> MeshTopology:
     """The MeshTopology of ``faces``, remembered across calls (by content) for the last few.
     ``key``: faces_key(faces), when the caller has it already."""
-    f = np.ascontiguousarray(faces, dtype=np.int64)
-    key = (n_vertices, faces_key(f) if key is None else key)
+    key = (n_vertices, faces_key(faces) if key is None else key)
     found = _topologies.pop(key, None)
-    if found is None:
-        found = MeshTopology(f, n_vertices)
+    if found is None:  # only then the int64 copy (Blender's faces come as int32)
+        found = MeshTopology(np.ascontiguousarray(faces, dtype=np.int64), n_vertices)
     _topologies[key] = found  # most recent last
     while len(_topologies) > keep:
         _topologies.pop(next(iter(_topologies)))

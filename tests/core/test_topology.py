@@ -99,3 +99,18 @@ def test_a_hem_tuck_stays_on_its_side_of_a_fold():
     np.testing.assert_allclose(out, want, rtol=1e-12, atol=1e-15)
     lower_near = (np.repeat(s, n_across) <= 0.7) & (x <= 3 * c)
     assert lower_near.sum() > 10 and (out[upper] > 0).sum() > 10
+
+
+def test_a_callers_faces_key_finds_the_topology_its_faces_are_filed_under():
+    from core.topology import faces_key
+
+    v, f = sheet(n=6)
+    f32 = f.astype(np.int32)
+    plain = topology_of(f, len(v))
+    # the same triangles in another integer type are the same content, with or without a given key
+    assert topology_of(f32, len(v)) is plain
+    assert topology_of(f32, len(v), key=faces_key(f32)) is plain
+    # against a topology built from scratch: the same edges
+    other = topology_of(f32[::-1], len(v), key=faces_key(f32[::-1]))
+    assert other is not plain
+    np.testing.assert_array_equal(np.unique(other.edges, axis=0), np.unique(plain.edges, axis=0))
