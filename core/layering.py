@@ -125,26 +125,43 @@ class _LayerLayout:
         return self._columns
 
 
+# Cells in _voxel_near's grid at most: a bigger grid costs more to mark than the cells save
+_VOXEL_CELLS = 1 << 21
+
+
 def _voxel_near(centres, cell, points):
     """Which centres lie in a voxel (of side ``cell``) of some point, or next to one: all those
-    within ``cell`` of a point, and some farther. None where the voxels cannot be
-    numbered (a cell tiny against the spread of centres and points)."""
+    within ``cell`` of a point, and some farther. A grid over the points' box, marked and grown
+    by one voxel each way, is read at each centre (a gather, where hashing the voxels needs a
+    sort); a cell too small for the grid to fit is taken larger, which only adds centres."""
     if not cell > 0:
         return np.zeros(len(centres), dtype=bool)
     p_lo, p_hi = box(points)
-    base = p_lo - 2 * cell  # every cell index of interest is >= 1
-    size = np.floor((np.maximum(p_hi, box(centres)[1]) - base) / cell).astype(np.int64) + 3
-    # beyond int64 key range the voxels would alias
-    if float(np.prod(size.astype(float))) >= 2.0**62:
-        return None
-
-    def key(q):
-        return (q[:, 0] * size[1] + q[:, 1]) * size[2] + q[:, 2]
-
-    cells = np.unique(np.floor((points - base) / cell).astype(np.int64), axis=0)
-    steps = np.stack(np.meshgrid(*[[-1, 0, 1]] * 3, indexing="ij"), -1).reshape(-1, 3)
-    near = np.unique(key((cells[:, None] + steps).reshape(-1, 3)))
-    return np.isin(key(np.clip(np.floor((centres - base) / cell).astype(np.int64), 0, size - 1)), near)
+    spread = p_hi - p_lo
+    cell = float(cell)
+    while float(np.prod(np.floor(spread / cell) + 5)) > _VOXEL_CELLS:
+        cell *= 2.0
+    # the points' cells are 2.. at least two from the far end (one to grow into, one for round-off)
+    base = p_lo - 2 * cell
+    size = np.floor(spread / cell).astype(np.int64) + 5
+    grid = np.zeros(tuple(size), dtype=bool)
+    q = np.floor((points - base) / cell).astype(np.intp)
+    grid[q[:, 0], q[:, 1], q[:, 2]] = True
+    for axis in range(3):
+        grown = grid.copy()
+        lo, hi = [slice(None)] * 3, [slice(None)] * 3
+        lo[axis], hi[axis] = slice(None, -1), slice(1, None)
+        grown[tuple(hi)] |= grid[tuple(lo)]
+        grown[tuple(lo)] |= grid[tuple(hi)]
+        grid = grown
+    # column by column: reductions over (n, 3) rows are slower
+    flat = np.zeros(len(centres), dtype=np.intp)
+    inside = np.ones(len(centres), dtype=bool)
+    for axis in range(3):
+        k = np.floor((centres[:, axis] - base[axis]) / cell)
+        inside &= (k >= 0) & (k < size[axis])
+        flat = flat * size[axis] + np.clip(k, 0, size[axis] - 1).astype(np.intp)
+    return grid.ravel()[flat] & inside
 
 
 class _SegmentScenes:
@@ -205,14 +222,12 @@ class _SegmentScenes:
             lo = np.minimum(np.minimum(*corners[:2]), corners[2])
             hi = np.maximum(np.maximum(*corners[:2]), corners[2])
             near = _voxel_near(0.5 * (lo + hi), reach + 0.5 * float(norms(hi - lo).max()), points)
-            if near is not None and near.mean() * len(ids) > 0.6 * len(self.faces):
+            if near.mean() * len(ids) > 0.6 * len(self.faces):
                 return self.full(), None
         lo, hi = self._face_boxes()
         if len(ids) < len(self.faces):  # ids are sorted and distinct: fewer names a subset
             lo, hi = rows(lo, ids), rows(hi, ids)
         keep = _voxel_near(0.5 * (lo + hi), reach + 0.5 * float(norms(hi - lo).max()), points)
-        if keep is None:
-            keep = np.ones(len(ids), dtype=bool)
         if not keep.any():
             return None
         if keep.sum() * 2 > len(self.faces) or self._full is not None:
