@@ -133,6 +133,7 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
     weight = np.ones((n, 3))
     depth_of = np.zeros(n, int)
     sigma = np.zeros((n, 3))  # absorption of the medium each ray travels in
+    absorbing = False  # whether any ray travels in an absorbing medium (camera rays: in air)
     first, stats = None, {"rays": 0, "shadow_rays": 0, "deepest": 0, "cut_by_importance": 0}
     albedo = np.array([m.colour for m in mats], float)
     absorb = np.array([m.absorption for m in mats], float)
@@ -148,9 +149,10 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
         if first is None:
             first = vis
         hit = vis.obj >= 0
-        # Beer-Lambert over the way to the hit (or to the background)
-        travel = np.where(hit, vis.t, 0.0)
-        weight = weight * np.exp(-sigma * travel[:, None])
+        if absorbing:  # exp over a frame's camera rays in air is 25 ms of multiplying by one
+            # Beer-Lambert over the way to the hit (or to the background)
+            travel = np.where(hit, vis.t, 0.0)
+            weight = weight * np.exp(-sigma * travel[:, None])
         if once:
             # camera rays: row i is pixel i and nothing is in it yet; most of a frame misses, and
             # the sky everywhere with the hits zeroed is a third of the time of scattering the misses
@@ -215,6 +217,7 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
         if not batches:
             break
         o, d, pixel, weight, depth_of, sigma = (np.concatenate(parts) for parts in zip(*batches, strict=True))
+        absorbing = bool(sigma.any())
         d = d / np.linalg.norm(d, axis=1, keepdims=True)
         leaving = np.full(len(o), scene.eps)
         once = False  # a pixel's reflected and refracted rays travel together
