@@ -148,12 +148,11 @@ def _voxel_near(centres, cell, points):
     q = np.floor((points - base) / cell).astype(np.intp)
     grid[q[:, 0], q[:, 1], q[:, 2]] = True
     for axis in range(3):
-        grown = grid.copy()
+        # in place: numpy buffers the overlapping slices, and the second shift of {i, i+1} is {i-1, i}
         lo, hi = [slice(None)] * 3, [slice(None)] * 3
         lo[axis], hi[axis] = slice(None, -1), slice(1, None)
-        grown[tuple(hi)] |= grid[tuple(lo)]
-        grown[tuple(lo)] |= grid[tuple(hi)]
-        grid = grown
+        grid[tuple(hi)] |= grid[tuple(lo)]
+        grid[tuple(lo)] |= grid[tuple(hi)]
     # column by column: reductions over (n, 3) rows are slower
     flat = np.zeros(len(centres), dtype=np.intp)
     inside = np.ones(len(centres), dtype=bool)

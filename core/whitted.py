@@ -160,7 +160,7 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
             colour[hit] = 0.0
         else:
             miss = np.flatnonzero(~hit)  # integer takes: boolean ones of (n, 3) rows are slower
-            _add(colour, pixel[miss], rows(weight, miss) * sky(rows(d, miss)), once)
+            _add(colour, pixel[miss], rows(weight, miss) * sky(rows(d, miss)), False)
         if not hit.any():
             break
         keep = np.flatnonzero(hit)
