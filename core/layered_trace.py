@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .correspondence import vertex_normals
-from .rays import RayHits, RayScene
+from .rays import RayHits, RayScene, unit_rays
 from .vectors import box, rows, unit
 
 
@@ -98,9 +98,15 @@ class LayeredScene:
         self._past_pokes = {}  # per layer a shadow ray leaves: _poke_bounds
 
     def split(self, face):
-        """Global face ids -> (object, face within it)."""
-        obj = np.where(face >= 0, self.face_object[np.maximum(face, 0)], -1)
-        return obj, np.where(face >= 0, face - self.first_face[np.maximum(obj, 0)], -1)
+        """Global face ids -> (object, face within it); -1 for both on a miss. Only the hits are
+        looked up: most camera rays of a frame miss."""
+        obj, local = np.full(len(face), -1), np.full(len(face), -1)
+        hit = np.flatnonzero(face >= 0)
+        if len(hit):
+            f = face[hit]
+            obj[hit] = self.face_object[f]
+            local[hit] = f - self.first_face[obj[hit]]
+        return obj, local
 
     def stack(self, per_vertex):
         """One array per object (a number or a vector per vertex) -> one array indexed as the
@@ -138,11 +144,13 @@ class LayeredScene:
         lower layer met within the probe distance of the higher-layer surface the ray leaves
         (``leaving``: per ray, the object it starts on, -1 for none): that is a poke-through
         the probe from its own side missed, and what is shown must not sit in its shadow."""
-        out = self.scene.occluded(origins, directions, max_dist=max_dist)
+        # of length one once: every ray below is a piece of these, traced as they are
+        origins, directions = unit_rays(origins, directions)
+        out = self.scene.occluded(origins, directions, max_dist=max_dist, scaled=True)
         if not layered or not out.any():
             return out
         ask = np.flatnonzero(out)
-        o, d = rows(np.asarray(origins, float), ask), rows(np.asarray(directions, float), ask)
+        o, d = rows(origins, ask), rows(directions, ask)
         dist = np.broadcast_to(np.asarray(max_dist, float), out.shape)[ask].copy()
         # Anything nothing is worn over (the outermost layer, props) on the way is shown, so it
         # blocks: one occlusion ray settles the rays a stack of covered layers would otherwise
@@ -150,7 +158,7 @@ class LayeredScene:
         own = self.object_layer[np.full(len(out), -1) if leaving is None else np.asarray(leaving)][ask]
         uncovered = self._uncovered_scene(len(ask))
         if uncovered is not None:
-            keep = ~uncovered.occluded(o, d, max_dist=dist)
+            keep = ~uncovered.occluded(o, d, max_dist=dist, scaled=True)
             if keep.any():
                 # of the rest, those with nothing on the way but poke-throughs are not blocked
                 kept = np.flatnonzero(keep)
@@ -167,7 +175,7 @@ class LayeredScene:
         pending = []
         for _ in range(4):
             # the cheap test first: a plain first hit on a lower layer this close is a poke-through
-            hits = self.scene.intersect(o, d, max_dist=dist)
+            hits = self.scene.intersect(o, d, max_dist=dist, scaled=True)
             obj, face = self.split(hits.face)
             layer = self.object_layer[obj]
             poke = hits.hit & (layer >= 0) & (layer < own)
@@ -215,8 +223,9 @@ class LayeredScene:
                 continue
             go = np.flatnonzero(own == layer)
             if higher is not None:
-                go = go[~higher.occluded(rows(o, go), rows(d, go), max_dist=dist[go])]
-            free[go] = ~self.scene.occluded(rows(o, go), rows(d, go), max_dist=dist[go], min_dist=shortest)
+                go = go[~higher.occluded(rows(o, go), rows(d, go), max_dist=dist[go], scaled=True)]
+            free[go] = ~self.scene.occluded(rows(o, go), rows(d, go), max_dist=dist[go], min_dist=shortest,
+                                            scaled=True)
         return free
 
     def _poke_bounds(self, layer):
@@ -261,8 +270,8 @@ class LayeredScene:
         """The hit each ray shows; with ``layered`` False, plain ray tracing. ``min_dist``
         skips what lies closer (a ray leaving a surface starts on it). ``first``: the rays'
         first hits (``min_dist`` 0) when the caller has traced them already."""
-        o = np.asarray(origins, float)
-        d = np.asarray(directions, float)
+        # of length one once: every later round goes on along these, traced as they are
+        o, d = unit_rays(origins, directions)
         n = len(o)
         lo = np.broadcast_to(np.asarray(min_dist, float), (n,))
         if not n:
@@ -278,7 +287,7 @@ class LayeredScene:
             if first is not None:
                 hits, first = first, None
             else:
-                hits = self.scene.intersect(o, d, min_dist=lo)
+                hits = self.scene.intersect(o, d, min_dist=lo, scaled=True)
             if cover is not None:
                 # a covering layer closer than the skip distance (coincident layers) still counts
                 nearer = np.flatnonzero(cover[0] < hits.t)
@@ -345,7 +354,7 @@ class LayeredScene:
             g, reach = self._probe_frame(obj[cand], face[cand], rows(hits.bary, cand))
             # a probe from just outside: a higher layer at the same place is in front
             start = p + g * self.offset
-            covered = scene.occluded(start, -g, max_dist=reach + self.offset)
+            covered = scene.occluded(start, -g, max_dist=reach + self.offset, scaled=True)
             rejected[cand] = covered
             if not covered.any():
                 continue
@@ -354,11 +363,11 @@ class LayeredScene:
             # only a covering layer within the skip distance: the next round meets anything
             # farther. Short occlusion rays first, as layers rarely coincide.
             back = rows(p, at) - dc * self.eps
-            close = scene.occluded(back, dc, max_dist=3 * self.eps)
+            close = scene.occluded(back, dc, max_dist=3 * self.eps, scaled=True)
             if close.any():
                 close = np.flatnonzero(close)
                 c, back, dc = c[close], rows(back, close), rows(dc, close)
-                again_hits = scene.intersect(back, dc, max_dist=3 * self.eps)
+                again_hits = scene.intersect(back, dc, max_dist=3 * self.eps, scaled=True)
                 if cover is None:
                     cover = (np.full(len(o), np.inf), np.full(len(o), -1), np.zeros((len(o), 2)))
                 cover[0][c] = np.where(again_hits.hit, np.maximum(again_hits.t - self.eps, 0.0), np.inf)

@@ -28,7 +28,7 @@ try:
 except ImportError:  # pragma: no cover - exercised by the fallback test via monkeypatch
     HAVE_EMBREE = False
 
-__all__ = ["HAVE_EMBREE", "RayHits", "RayScene", "SceneUnion", "step_past_hit", "thread_count"]
+__all__ = ["HAVE_EMBREE", "RayHits", "RayScene", "SceneUnion", "step_past_hit", "thread_count", "unit_rays"]
 
 # Below this many rays a thread hand-off costs more than it saves.
 _MIN_RAYS_PER_CHUNK = 8192
@@ -110,6 +110,12 @@ def _as_rays(origins, directions, scaled=False) -> tuple[np.ndarray, np.ndarray]
     if len(length) and not (length > 0).all():
         raise ValueError(f"directions has {(length <= 0).sum()} zero-length vectors")
     return o, d / length[:, None] if len(d) else d
+
+
+def unit_rays(origins, directions) -> tuple[np.ndarray, np.ndarray]:
+    """Checked rays as float64 arrays, directions of length one: for callers that trace pieces
+    of them several times (``scaled=True`` then skips scaling them each time)."""
+    return _as_rays(origins, directions)
 
 
 def _as_range(name: str, value, n: int, default: float) -> np.ndarray:
@@ -268,14 +274,15 @@ class RayScene:
     def backend(self) -> str:
         return "embree" if HAVE_EMBREE else "numpy"
 
-    def intersect(self, origins, directions, max_dist=None, min_dist=None) -> RayHits:
+    def intersect(self, origins, directions, max_dist=None, min_dist=None, scaled=False) -> RayHits:
         """First hit of each ray with ``min_dist <= t <= max_dist`` (per ray or scalar).
 
         Directions need not be unit; ``t`` is in the units of the vertices. A miss has ``t``
-        inf, ``face`` -1 and ``bary`` (0, 0).
+        inf, ``face`` -1 and ``bary`` (0, 0). ``scaled``: as in :meth:`occluded` (``t`` in
+        units of each direction's length), so rays already of length one are not made so again.
         """
         self._check_fresh()
-        o, d = _as_rays(origins, directions)
+        o, d = _as_rays(origins, directions, scaled)
         n = len(o)
         tmax = _as_range("max_dist", max_dist, n, np.inf)
         t = np.full(n, np.inf)
@@ -297,7 +304,11 @@ class RayScene:
         if self._scene is not None:
             tf, ff, uv = self._trace_embree(oo, dd, hi)
         else:
-            tf, ff = self._fallback(oo, dd, np.zeros(len(oo)), hi)
+            # the numpy engine measures along unit directions
+            scale = norms(dd) if scaled else np.ones(len(dd))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                tf, ff = self._fallback(oo, dd / scale[:, None], np.zeros(len(oo)), hi * scale)
+                tf = tf / scale
             ff = self._to_faces(ff, None)
             hit = ff >= 0
             tf[hit] = self._refine_t(oo[hit], dd[hit], ff[hit], tf[hit], hi[hit])

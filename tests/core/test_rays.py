@@ -275,6 +275,29 @@ def test_numpy_fallback_gives_the_same_hits(rng, monkeypatch):
     np.testing.assert_allclose(numpy_hits.t[both], embree.t[both], rtol=1e-6, atol=1e-9)
 
 
+@pytest.mark.parametrize("backend", ["embree", "numpy"])
+def test_scaled_rays_measure_in_their_directions_length(rng, monkeypatch, backend):
+    """With ``scaled``, a ray's distances are in units of its direction's length (0..1 along an
+    edge given as start and vector): the hits of brute force along the unit direction, with
+    the range and the answer's t multiplied by that length."""
+    v, f = random_soup(rng)
+    o, d = random_rays(rng, 2000)
+    length = np.linalg.norm(d, axis=1) * 10.0 ** rng.uniform(-1, 1, len(d))
+    d = d / np.linalg.norm(d, axis=1, keepdims=True) * length[:, None]
+    tmin, tmax = rng.uniform(0.0, 0.5, len(o)), rng.uniform(0.5, 3.0, len(o))
+    if backend == "numpy":
+        monkeypatch.setattr(rays, "HAVE_EMBREE", False)
+        monkeypatch.setattr(rays, "_warned_fallback", True)
+    scene = RayScene(v, f)
+    assert scene.backend == backend
+    got = scene.intersect(o, d, max_dist=tmax / length, min_dist=tmin / length, scaled=True)
+    unit = scene.intersect(o, d, max_dist=tmax, min_dist=tmin)
+    assert_matches_brute(scene, v, f, o, d, tmin=tmin, tmax=tmax)
+    np.testing.assert_array_equal(got.face, unit.face)
+    np.testing.assert_allclose(got.t[got.hit] * length[got.hit], unit.t[got.hit], rtol=1e-9)
+    np.testing.assert_allclose(got.bary, unit.bary, atol=1e-5)  # Embree's float32 barycentrics
+
+
 @pytest.mark.parametrize("direct", ["on", "off", "numpy"])
 def test_parts_answer_as_brute_force_over_their_faces_and_name_the_whole_scenes_faces(rng, monkeypatch, direct):
     """A part over some face ranges hits what Möller–Trumbore finds among those faces alone and

@@ -164,6 +164,36 @@ def test_ten_crossing_layers_show_only_the_outermost_from_above():
     assert len(scene.scene._groups) == 9 - plain.obj.min()
 
 
+def test_rays_of_any_length_see_and_are_blocked_as_their_unit_rays():
+    """Directions need not be of length one: ten crossing layers seen from above, and shadow
+    rays leaving each of them, give the same answers for directions of lengths 0.1 to 10 as
+    for unit ones, also where rays go on past several ignored hits (each round steps along the
+    ray by the distance it found)."""
+    layers = [sheet(size=1.0, n=24, z=0.002 * k, height_fn=lambda x, y, k=k: 0.006 * np.sin(7 * x + k) * np.cos(5 * y))
+              for k in range(10)]
+    up = [np.tile([0.0, 0.0, 1.0], (len(v), 1)) for v, _ in layers]
+    scene = LayeredScene(layers, list(range(1, 11)), global_normals=up, probe_distance=0.05)
+    o, d = down_rays(n=40, spread=0.45)
+    rng = np.random.default_rng(5)
+    length = 10.0 ** rng.uniform(-1, 1, len(d))
+    ref, got = scene.first_visible(o, d), scene.first_visible(o, d * length[:, None])
+    assert ref.skipped > ref.fixed.sum()  # some rays went on past more than one ignored hit
+    np.testing.assert_array_equal(got.obj, ref.obj)
+    np.testing.assert_array_equal(got.fixed, ref.fixed)
+    np.testing.assert_allclose(got.t, ref.t, rtol=1e-9)
+    # shadow rays from each layer, up and down through the stack
+    n = 2000
+    leaving = rng.integers(0, 10, n)
+    start = np.column_stack([rng.uniform(-0.4, 0.4, (n, 2)), 0.002 * leaving])
+    way = rng.normal(size=(n, 3))
+    way /= np.linalg.norm(way, axis=1, keepdims=True)
+    dist = rng.uniform(0.005, 1.0, n)
+    ref = scene.blocked(start, way, dist, leaving=leaving)
+    assert ref.any() and not ref.all()
+    stretched = way * 10.0 ** rng.uniform(-1, 1, (n, 1))
+    np.testing.assert_array_equal(scene.blocked(start, stretched, dist, leaving=leaving), ref)
+
+
 @pytest.mark.parametrize("scale, offset", [(1e-3, 0.0), (1e3, 0.0), (1.0, 1e4), (1e-3, 50.0)])
 def test_z_fighting_layers_resolve_the_same_at_millimetre_and_kilometre_scales_and_far_away(scale, offset):
     """The z-fighting sheets and, over their right half, a stack of four wavy layers crossing
