@@ -205,7 +205,7 @@ class LayeredScene:
         if pending:
             rays, o, d, dist, t, face, bary = (np.concatenate(x) for x in zip(*pending, strict=True))
             known = RayHits(t, face, bary, self.scene.normals_of)
-            out[rays] = self.first_visible(o, d, first=known).t < dist
+            out[rays] = self.first_visible(o, d, first=known, scaled=True).t < dist
         return out
 
     def _clear_past_pokes(self, o, d, dist, own):
@@ -266,12 +266,15 @@ class LayeredScene:
                 self._uncovered = self._scene_of(ids)
         return self._uncovered or None
 
-    def first_visible(self, origins, directions, layered=True, max_skips=16, min_dist=0.0, first=None) -> Visible:
+    def first_visible(self, origins, directions, layered=True, max_skips=16, min_dist=0.0, first=None,
+                      scaled=False) -> Visible:
         """The hit each ray shows; with ``layered`` False, plain ray tracing. ``min_dist``
         skips what lies closer (a ray leaving a surface starts on it). ``first``: the rays'
-        first hits (``min_dist`` 0) when the caller has traced them already."""
+        first hits (``min_dist`` 0) when the caller has traced them already. ``scaled``: as in
+        RayScene (distances in units of each direction's length), for callers whose rays are
+        of length one already."""
         # of length one once: every later round goes on along these, traced as they are
-        o, d = unit_rays(origins, directions)
+        o, d = (np.asarray(origins, float), np.asarray(directions, float)) if scaled else unit_rays(origins, directions)
         n = len(o)
         lo = np.broadcast_to(np.asarray(min_dist, float), (n,))
         if not n:

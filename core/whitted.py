@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .layered_trace import LayeredScene
+from .rays import unit_rays
 from .vectors import norms, rows
 
 LUMA = np.array([0.299, 0.587, 0.114])  # NTSC luminance weights
@@ -126,7 +127,7 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
     if max_depth < 0:
         raise ValueError(f"max_depth must be >= 0, got {max_depth}")
     sky = background if callable(background) else (lambda d: np.broadcast_to(np.asarray(background, float), d.shape))
-    o, d = np.asarray(origins, float), np.asarray(directions, float)
+    o, d = unit_rays(origins, directions)  # hit points, shading and Fresnel take them of length one
     n = len(o)
     colour = np.zeros((n, 3))
     pixel = np.arange(n)
@@ -144,7 +145,7 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
     leaving = np.zeros(n)  # secondary rays start on their surface and skip it
     once = True  # each pixel at most once in the batch (camera rays), so no np.add.at needed
     while len(pixel):
-        vis = scene.first_visible(o, d, layered=layered, min_dist=leaving)
+        vis = scene.first_visible(o, d, layered=layered, min_dist=leaving, scaled=True)
         stats["rays"] += len(pixel)
         if first is None:
             first = vis

@@ -222,6 +222,29 @@ def test_z_fighting_layers_resolve_the_same_at_millimetre_and_kilometre_scales_a
     np.testing.assert_allclose(got.t, ref.t * scale, rtol=1e-9)
 
 
+def test_camera_rays_of_any_length_render_as_their_unit_rays():
+    """A shiny, mirroring and partly transmissive sphere over two z-fighting sheets: camera
+    directions of lengths 0.1 to 10 give the image of the unit ones (hit points, highlights and
+    Fresnel all take the direction of length one)."""
+    sphere = trimesh.creation.icosphere(subdivisions=3, radius=0.3)
+    v, f = sheet(size=2.0, n=20, z=0.0)
+    wiggle = v.copy()
+    wiggle[:, 2] += 0.002 * np.sin(37 * v[:, 0]) * np.cos(23 * v[:, 1])
+    up = np.tile([0.0, 0.0, 1.0], (len(v), 1))
+    scene = LayeredScene([(sphere.vertices + [0, 0, 0.5], sphere.faces), (wiggle, f), (v, f)], [None, 1, 2],
+                         global_normals=[None, up, up], probe_distance=0.01)
+    mats = [Material(colour=(0.9, 0.2, 0.1), specular=0.5, mirror=0.3, transmission=0.4, ior=1.4),
+            Material(colour=(1, 0, 0)), Material(colour=(0, 0, 1))]
+    sun = [Light("SUN", (-0.3, -0.2, -1.0), (1, 1, 1))]
+    o, d = down_rays(n=24, z=2.0, spread=0.8)
+    length = 10.0 ** np.random.default_rng(2).uniform(-1, 1, (len(d), 1))
+    ref, got = render(scene, mats, sun, o, d), render(scene, mats, sun, o, d * length)
+    assert (ref.index == 0).any() and (ref.index == 2).any() and ref.fixed.any()
+    np.testing.assert_array_equal(got.index, ref.index)
+    np.testing.assert_allclose(got.colour, ref.colour, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(got.depth[np.isfinite(ref.depth)], ref.depth[np.isfinite(ref.depth)], rtol=1e-9)
+
+
 def test_flipped_faces_shade_the_same():
     sphere = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
     sun = [Light("SUN", (0, 0, -1), (1, 1, 1))]
