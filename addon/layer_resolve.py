@@ -154,12 +154,25 @@ def _check_own_vertices(objs, arrays, what):
                                      f"{len(a.vertices)}): {what}")
 
 
+def read_meshes(objs, depsgraph):
+    """Evaluated meshes of ``objs`` (world space), each checked to sit at finite positions: a cloth
+    solver that blew up or a driver dividing by zero is named here, before anything is changed,
+    not by its index in a list deep in core."""
+    arrays = [mesh_io.read_mesh(o, depsgraph) for o in objs]
+    for obj, a in zip(objs, arrays, strict=True):
+        lost = int((~np.isfinite(a.vertices).all(axis=1)).sum())
+        if lost:
+            raise LayeringInputError(f"{obj.name} has {lost} vertices at no finite position (NaN or infinite) "
+                                     "after its modifiers: fix or re-bake it; nothing was changed")
+    return arrays
+
+
 def read_scene(scene, scheme_name):
     """Evaluated body and garments (world space) without any earlier result applied."""
     body, garments = layered_objects(scene)
     with results_bypassed(garments):
         depsgraph = bpy.context.evaluated_depsgraph_get()
-        arrays = [mesh_io.read_mesh(o, depsgraph) for o in (body, *garments)]
+        arrays = read_meshes([body, *garments], depsgraph)
         parts, source = body_parts(body, scheme_name, arrays[0].vertices)
         g_parts = [garment_parts(g, scheme_name) for g in garments]
         g_normals = []
@@ -335,7 +348,7 @@ def auto_segment(scene) -> str:
     body, garments = layered_objects(scene)
     with results_bypassed(garments):
         depsgraph = bpy.context.evaluated_depsgraph_get()
-        arrays = [mesh_io.read_mesh(o, depsgraph) for o in (body, *garments)]
+        arrays = read_meshes([body, *garments], depsgraph)
         parts, source = body_parts(body, settings.scheme, arrays[0].vertices, painted_groups=False)
         if parts is None:
             raise LayeringInputError(f"{body.name} has no rig vertex groups or stored parts to segment by: "
@@ -358,9 +371,9 @@ def inspect_scene(scene) -> dict:
     objs = [body, *garments]
     with results_bypassed(garments):
         depsgraph = bpy.context.evaluated_depsgraph_get()
-        fitted = [mesh_io.read_mesh(o, depsgraph) for o in objs]
+        fitted = read_meshes(objs, depsgraph)
     depsgraph = bpy.context.evaluated_depsgraph_get()
-    now = [mesh_io.read_mesh(o, depsgraph) for o in objs]
+    now = read_meshes(objs, depsgraph)
     before = [(a.vertices, a.triangles) for a in fitted]
     after = [(a.vertices, a.triangles) for a in now]
     cameras = metrics.camera_ring(*metrics.layer_bounds(before), views=8, resolution=96)

@@ -78,7 +78,8 @@ def read_mesh(obj, depsgraph=None, world=True, slots=False, shading=False, uvs=F
     v = co.reshape(-1, 3).astype(np.float64)
     mw = np.array(evaluated.matrix_world, dtype=np.float64)
     if world:
-        v = v @ mw[:3, :3].T + mw[:3, 3]
+        with np.errstate(invalid="ignore", over="ignore"):  # NaN or huge positions: the callers say which mesh
+            v = v @ mw[:3, :3].T + mw[:3, 3]
     if corner is not None:
         corner = world_normals(corner, mw) if world else corner
         corner = corner.reshape(-1, 3, 3)

@@ -20,6 +20,7 @@ a pixel shows (for compositing or checking a scene).
 """
 
 import time
+from dataclasses import replace
 
 import bpy
 import numpy as np
@@ -168,6 +169,34 @@ def _meshes(depsgraph):
                                       a.n_polygons, m, a.triangle_material, a.triangle_uv, normals), True, mats
 
 
+def finite_part(a):
+    """(``a`` without the triangles that have a corner at no finite position, how many went): a
+    cloth solver that blew up or a driver dividing by zero leaves NaN or infinite vertices, and
+    Cycles renders the rest of such a mesh. The lost vertices, which no triangle then uses, take
+    a finite vertex's place so that boxes and searches over the mesh stay finite; corner
+    normals Blender blended from a lost neighbour take their triangle's own normal."""
+    lost = ~np.isfinite(a.vertices).all(axis=1)
+    if not lost.any():
+        return a, 0
+    keep = ~lost[a.triangles].any(axis=1)
+    vertices = a.vertices.copy()
+    vertices[lost] = vertices[~lost][0] if (~lost).any() else 0.0
+    tris = a.triangles[keep]
+    normals = None
+    if a.triangle_normals is not None:
+        normals = a.triangle_normals[keep].copy()
+        odd = ~np.isfinite(normals).all(axis=2)
+        if odd.any():
+            c = vertices[tris]
+            flat = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
+            flat /= np.maximum(np.linalg.norm(flat, axis=1, keepdims=True), 1e-300)
+            normals[odd] = np.broadcast_to(flat[:, None], normals.shape)[odd]
+    pick = lambda x: None if x is None else x[keep]  # noqa: E731
+    return replace(a, vertices=vertices, triangles=tris, triangle_polygon=a.triangle_polygon[keep],
+                   triangle_material=pick(a.triangle_material), triangle_uv=pick(a.triangle_uv),
+                   triangle_normals=normals), int((~keep).sum())
+
+
 # With the scene's Persistent Data on (Render Properties > Performance, as Cycles has it), the
 # last frame's ray scenes (the BVHs, what is worn over each layer) are kept for the next render
 # of the same meshes: look-development renders of a still pose build nothing again.
@@ -201,16 +230,20 @@ def layered_scene(objects, layers, normals, probe, offset, keep=False):
 
 def scene_arrays(depsgraph, layered=True):
     """(LayeredScene, materials, face slots, face UVs, corner normals, pass indices, whether the
-    LayeredScene was kept from the last render: ``layered_scene``) of the meshes
+    LayeredScene was kept from the last render: ``layered_scene``, what it left out to say so:
+    ``finite_part``) of the meshes
     the depsgraph shows, in world space: per object the Materials of its slots, each triangle's
     slot, for textured materials its corners' UVs, its corners' shading normals as Blender
     gives them (None for a mesh smooth all over), and its pass index. Instances are drawn as
     they are, outside the layering. Without ``layered`` (plain ray tracing) the global
     normals, body parts and probe distances that only layering uses are not read."""
-    objects, layers, normals, materials, slots, uvs, shading, pass_index = [], [], [], [], [], [], [], []
+    objects, layers, normals, materials, slots, uvs, shading, pass_index, warnings = ([] for _ in range(9))
     settings = depsgraph.scene.deformrt
     parts = None
     for obj, a, outside, mats in _meshes(depsgraph):
+        a, lost = finite_part(a)
+        if lost:
+            warnings.append(f"{obj.name}: {lost} triangles at no finite position (NaN or infinite) left out")
         if not len(a.triangles):
             continue
         role = "NONE" if outside else obj.deformrt.role
@@ -237,7 +270,7 @@ def scene_arrays(depsgraph, layered=True):
                             traced=[lay is not None and lay < top for lay in layers])
     made, kept = layered_scene(objects, layers, normals, probe, settings.offset,
                                keep=depsgraph.scene.render.use_persistent_data)
-    return made, materials, slots, uvs, shading, pass_index, kept
+    return made, materials, slots, uvs, shading, pass_index, kept, warnings
 
 
 def body_probes(objects, layers, given=None, parts=None, scheme=None, traced=None):
@@ -336,7 +369,7 @@ class FrameTracer:
         scene = depsgraph.scene
         settings = scene.deformrt
         t0 = time.perf_counter()
-        self.scene, materials, slots, uvs, shading, self.pass_index, self.kept = scene_arrays(
+        self.scene, materials, slots, uvs, shading, self.pass_index, self.kept, self.warnings = scene_arrays(
             depsgraph, settings.render_layered)
         self.surfaces = Surfaces.build(self.scene, materials, slots, uvs, shading)  # once for every band
         self.seconds = {"read_build_s": time.perf_counter() - t0, "trace_s": 0.0}
@@ -412,6 +445,8 @@ class DEFORMRT_RE_layered(bpy.types.RenderEngine):
             tracer = FrameTracer(depsgraph, w, h)
             if tracer.kept:
                 self.update_stats("", "DeformRT: ray scenes kept from the last render (Persistent Data)")
+            for warning in tracer.warnings:
+                self.report({"WARNING"}, f"DeformRT Layered: {warning}")
         except ValueError as exc:  # meshes or settings it cannot trace: say so, not a blank frame
             self.report({"ERROR"}, f"DeformRT Layered: {exc}")
             self.end_result(self.begin_result(0, 0, w, h))

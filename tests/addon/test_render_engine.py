@@ -511,6 +511,44 @@ def test_a_flat_shaded_cube_shows_flat_faces(studio, clean_scene, tmp_path):
     np.testing.assert_allclose(top, 2 * np.cos(np.radians(30)) / np.pi, rtol=1e-5)
 
 
+def test_triangles_at_nan_positions_are_left_out_as_if_blender_had_deleted_them(extension, studio, clean_scene,
+                                                                              tmp_path):
+    """A vertex a cloth solver blew up to NaN: the frame renders (as Cycles renders it), without
+    the triangles around that vertex, exactly as the mesh renders with the vertex deleted, and
+    the render says what it left out."""
+    import bmesh
+
+    engine = importlib.import_module(f"{extension.__name__}.addon.render_engine")
+    scene = _engine(clean_scene)
+    _stage(scene)
+    _, jacket = _garment_pair(scene)
+    intact = _render(studio, scene, tmp_path)
+    co = np.empty(len(jacket.data.vertices) * 3)
+    jacket.data.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3)
+    lost = int(np.argmin(np.linalg.norm(co[:, :2] - [0.1, -0.05], axis=1)))  # inside the grid, in view
+    broken = co.copy()
+    broken[lost] = np.nan
+    jacket.data.vertices.foreach_set("co", broken.ravel())
+    jacket.data.update()
+    shown = _render(studio, scene, tmp_path)
+    warnings = engine.FrameTracer(bpy.context.evaluated_depsgraph_get(), 32, 32).warnings
+    jacket.data.calc_loop_triangles()  # Blender's own triangles around the vertex
+    around = sum(lost in t.vertices[:] for t in jacket.data.loop_triangles)
+    assert around >= 4
+    assert warnings == [f"Jacket: {around} triangles at no finite position (NaN or infinite) left out"]
+    assert np.isfinite(shown).all() and not np.array_equal(shown, intact)  # the shirt shows through the hole
+    jacket.data.vertices.foreach_set("co", co.ravel())
+    bm = bmesh.new()
+    bm.from_mesh(jacket.data)
+    bm.verts.ensure_lookup_table()
+    bmesh.ops.delete(bm, geom=[bm.verts[lost]], context="VERTS")
+    bm.to_mesh(jacket.data)
+    bm.free()
+    jacket.data.update()
+    np.testing.assert_allclose(shown, _render(studio, scene, tmp_path), atol=1e-6)
+
+
 def test_persistent_data_keeps_the_ray_scenes_while_the_meshes_stay_the_same(extension, studio, clean_scene,
                                                                             tmp_path, monkeypatch):
     """With Blender's Persistent Data on, a second render of the same meshes builds no ray scene and

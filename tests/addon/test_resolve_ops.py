@@ -197,6 +197,24 @@ def test_scenes_that_cannot_be_resolved_are_refused_unchanged(extension, tubes):
     _untouched([body, shirt, jacket])
 
 
+def test_a_garment_at_nan_positions_is_named_and_the_last_result_stays(extension, tubes):
+    body, (shirt, jacket) = tubes
+    results = sub(extension, "addon.results")
+    bpy.ops.deformrt.resolve_layers()
+    kept = [results.read_offsets(g, len(g.data.vertices)) for g in (shirt, jacket)]
+    assert max(np.abs(k).max() for k in kept) > 0
+    co = np.empty(len(jacket.data.vertices) * 3)
+    jacket.data.vertices.foreach_get("co", co)
+    co[[30, 31 * 3 + 2]] = np.nan, np.inf  # as a cloth solver that blew up leaves it
+    jacket.data.vertices.foreach_set("co", co)
+    jacket.data.update()
+    _refuses("Jacket has 2 vertices at no finite position")
+    with pytest.raises(RuntimeError, match="Jacket has 2 vertices"):
+        bpy.ops.deformrt.inspect_layers()
+    for g, k in zip((shirt, jacket), kept, strict=True):
+        np.testing.assert_array_equal(results.read_offsets(g, len(g.data.vertices)), k)
+
+
 def _group_members(obj, name):
     """Vertices in a group, read per vertex on purpose: an independent path from the add-on's
     bulk Geometry Nodes reader."""
