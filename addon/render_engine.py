@@ -378,6 +378,9 @@ class FrameTracer:
         self.origins, self.directions = camera_rays(m, vertical_fov(scene.camera.data, width, height), width, height)
         # distance along the ray -> along the camera's axis, as Cycles writes depth
         self._to_depth = self.directions @ -m[:3, 2] / np.linalg.norm(m[:3, 2])
+        # the clipping planes lie at depths along the camera's axis, as Cycles takes them
+        cam = scene.camera.data
+        self._clip = (cam.clip_start / self._to_depth, cam.clip_end / self._to_depth)
         self.sky = _background(scene.world)
         self.lights = _lights(depsgraph, settings.render_area_samples)
         self.max_depth, self.layered = settings.render_max_depth, settings.render_layered
@@ -388,7 +391,7 @@ class FrameTracer:
         sl = slice(start * self.width, stop * self.width)
         img = render(self.scene, self.surfaces, self.lights, self.origins[sl], self.directions[sl],
                      background=self.sky, ambient=np.asarray(self.sky), max_depth=self.max_depth,
-                     layered=self.layered)
+                     layered=self.layered, clip=(self._clip[0][sl], self._clip[1][sl]))
         self.seconds["trace_s"] += time.perf_counter() - t0
         return img, img.depth * self._to_depth[sl]
 

@@ -111,14 +111,17 @@ class Surfaces:
 
 def render(scene: LayeredScene, materials, lights, origins, directions, background=(0.0, 0.0, 0.0),
            ambient=0.0, max_depth=4, cutoff=0.01, layered=True, face_slots=None, face_uvs=None,
-           corner_normals=None) -> Image:
+           corner_normals=None, clip=None) -> Image:
     """Colour per ray. ``materials`` one per object: a Material, or a list of them that
     ``face_slots`` (per object None or one slot per face; past the last slot, the last) picks
     from face by face; ``face_uvs`` per object None or (faces, 3, 2) UVs of each face's corners,
     for textured materials; ``corner_normals`` per object None (smooth: its vertex normals) or
     (faces, 3, 3) unit shading normals of each face's corners (flat faces, sharp edges and
     custom normals, as Blender gives them); or ``materials`` a ``Surfaces`` built from all of
-    these once. ``background`` a colour or a function of ray directions (n, 3) -> (n, 3)."""
+    these once. ``background`` a colour or a function of ray directions (n, 3) -> (n, 3).
+    ``clip``: (near, far) distances along each ray (numbers or one per ray) between which these
+    rays see anything, as a camera's clipping planes cut what its rays see and nothing else:
+    what they reflect, refract or are shadowed by is not clipped. Depth is from the origins."""
     surfaces = (materials if isinstance(materials, Surfaces)
                 else Surfaces.build(scene, materials, face_slots, face_uvs, corner_normals))
     mats, face_material = surfaces.materials, surfaces.face_material
@@ -129,6 +132,13 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
     sky = background if callable(background) else (lambda d: np.broadcast_to(np.asarray(background, float), d.shape))
     o, d = unit_rays(origins, directions)  # hit points, shading and Fresnel take them of length one
     n = len(o)
+    near = far = None
+    if clip is not None:
+        near, far = (np.broadcast_to(np.asarray(x, float), (n,)) for x in clip)
+        if not ((near >= 0) & (far > near)).all():
+            raise ValueError("clip needs 0 <= near < far on every ray")
+        # the rays start on the near plane, as Cycles starts them: no hit nearer counts
+        o = o + d * near[:, None]
     colour = np.zeros((n, 3))
     pixel = np.arange(n)
     weight = np.ones((n, 3))
@@ -148,6 +158,9 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
         vis = scene.first_visible(o, d, layered=layered, min_dist=leaving, scaled=True)
         stats["rays"] += len(pixel)
         if first is None:
+            if far is not None:
+                beyond = np.flatnonzero(vis.t > far - near)
+                vis.t[beyond], vis.obj[beyond], vis.face[beyond], vis.fixed[beyond] = np.inf, -1, -1, False
             first = vis
         hit = vis.obj >= 0
         if absorbing:  # exp over a frame's camera rays in air is 25 ms of multiplying by one
@@ -222,7 +235,7 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
         d = d / np.linalg.norm(d, axis=1, keepdims=True)
         leaving = np.full(len(o), scene.eps)
         once = False  # a pixel's reflected and refracted rays travel together
-    return Image(colour, first.t, first.obj, first.fixed, stats)
+    return Image(colour, first.t if near is None else first.t + near, first.obj, first.fixed, stats)
 
 
 def _material_table(scene, materials, face_slots):

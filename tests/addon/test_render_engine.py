@@ -156,6 +156,32 @@ def test_depth_object_index_and_fixed_passes(extension, studio, clean_scene, tmp
     assert not (layered["IndexOB"] == 1).any()
 
 
+def test_the_cameras_clipping_planes_cut_what_it_sees_at_their_depths(studio, clean_scene, tmp_path):
+    """A sheet 5 cm in front of the lens (nearer than the default 0.1 m clip start) is not seen and
+    a 40 m floor 5 m below is, to its corners: the planes lie at depths along the camera's axis,
+    as Cycles takes them (along each ray, a clip end of 5.2 m would cut the corners, 5.5 m away).
+    With the clip start at 1 cm the sheet covers the view; with the clip end at 4.9 m nothing shows."""
+    scene = _engine(clean_scene)
+    _stage(scene)
+    view = scene.view_layers[0]
+    view.use_pass_z = view.use_pass_object_index = True
+    for index, z in ((1, 4.95), (2, 0.0)):
+        bpy.ops.mesh.primitive_plane_add(size=40.0, location=(0, 0, z))
+        bpy.context.active_object.pass_index = index
+    cam = scene.camera.data
+    cam.clip_end = 5.2
+    px = _render(studio, scene, tmp_path, passes=("Depth", "IndexOB"))
+    np.testing.assert_array_equal(px["IndexOB"], 2)
+    np.testing.assert_allclose(px["Depth"], 5.0, rtol=1e-5)
+    cam.clip_start = 0.01
+    px = _render(studio, scene, tmp_path, passes=("Depth", "IndexOB"))
+    np.testing.assert_array_equal(px["IndexOB"], 1)
+    np.testing.assert_allclose(px["Depth"], 0.05, rtol=1e-4)
+    cam.clip_start, cam.clip_end = 0.1, 4.9
+    px = _render(studio, scene, tmp_path, passes=("IndexOB",))
+    np.testing.assert_array_equal(px, 0)
+
+
 def _white_floor(scene):
     """No sun, a 40 m white floor under the camera: a stage for one light's own light."""
     _stage(scene, sun_strength=0.0)

@@ -125,6 +125,35 @@ def test_mirror_recursion_stops_at_the_limit_and_at_the_importance_cutoff():
     assert img.stats["deepest"] == 3 and img.stats["cut_by_importance"] == 1
 
 
+def test_clipping_cuts_what_camera_rays_see_and_not_what_they_reflect():
+    """Three sheets under rays from z = 1: at 0.95 (nearer than the near clip, 0.1), at 0.5 and at
+    -2 (past the far clip, 2). The rays see the middle one only, at depth 0.5 from the origins.
+    A camera's clipping cuts camera rays only, as in Cycles: made a mirror, the middle sheet shows
+    the sheet above it, nearer than the near clip and, along the bounced path, past a far clip at
+    0.6. With the near clip at 0.01 the rays see the first sheet; between 0.1 and 0.4, nothing."""
+    sheets = [sheet(size=2.0, n=4, z=z) for z in (0.95, 0.5, -2.0)]
+    scene = LayeredScene(sheets, [None] * 3)
+    o, d = down_rays(n=3)
+    colours = [Material(colour=c) for c in ((1, 0, 0), (0, 1, 0), (0, 0, 1))]
+    sun = [Light("SUN", (0, 0, -1), (1.0, 1.0, 1.0))]
+    img = render(scene, colours, sun, o, d, clip=(0.1, 2.0))
+    np.testing.assert_array_equal(img.index, 1)
+    np.testing.assert_allclose(img.depth, 0.5)
+    mirror = [colours[0], Material(colour=(0, 0, 0), mirror=1.0), colours[2]]
+    img = render(scene, mirror, [], o, d, clip=(0.1, 0.6), ambient=0.5)
+    np.testing.assert_array_equal(img.index, 1)
+    np.testing.assert_allclose(img.colour, np.tile([0.5, 0.0, 0.0], (len(o), 1)))  # the red sheet's ambient
+    img = render(scene, colours, sun, o, d, clip=(0.01, 2.0))
+    np.testing.assert_array_equal(img.index, 0)
+    np.testing.assert_allclose(img.depth, 0.05)
+    img = render(scene, colours, sun, o, d, clip=(0.1, 0.4), background=(0.2, 0.3, 0.4))
+    np.testing.assert_array_equal(img.index, -1)
+    assert np.isinf(img.depth).all()
+    np.testing.assert_allclose(img.colour, np.tile([0.2, 0.3, 0.4], (len(o), 1)))
+    with pytest.raises(ValueError, match="clip"):
+        render(scene, colours, sun, o, d, clip=(0.5, 0.5))
+
+
 def test_z_fighting_sheets_show_only_the_higher_layer():
     v, f = sheet(size=1.0, n=20, z=0.0)
     wiggle = v.copy()
