@@ -343,8 +343,9 @@ def _background(world):
     return tuple(world.color) if world is not None else (0.05, 0.05, 0.05)
 
 
-def vertical_fov(cam, width, height):
-    """The camera's vertical field of view for a width x height image (sensor fit as Blender)."""
+def _fitted_half(cam, width, height):
+    """(tan of half the field of view across the dimension the sensor fits, whether that is the
+    width) for a width x height image, as Blender fits the sensor."""
     if cam.type != "PERSP":
         raise ValueError(f"DeformRT Layered renders perspective cameras only, not {cam.type.lower()}")
     fit = cam.sensor_fit
@@ -353,9 +354,20 @@ def vertical_fov(cam, width, height):
         half = cam.sensor_width / (2 * cam.lens)  # AUTO fits the sensor width to the longer side
     else:
         half = (cam.sensor_width if fit == "HORIZONTAL" else cam.sensor_height) / (2 * cam.lens)
-    if fit == "HORIZONTAL":
-        half *= height / width
-    return 2 * np.arctan(half)
+    return half, fit == "HORIZONTAL"
+
+
+def vertical_fov(cam, width, height):
+    """The camera's vertical field of view for a width x height image (sensor fit as Blender)."""
+    half, horizontal = _fitted_half(cam, width, height)
+    return 2 * np.arctan(half * height / width if horizontal else half)
+
+
+def image_shift(cam, width, height):
+    """The camera's lens shift as an offset of the image's centre on the image plane at distance
+    1: Blender's shift_x and shift_y count in whole widths of the fitted dimension."""
+    half, _ = _fitted_half(cam, width, height)
+    return 2 * half * cam.shift_x, 2 * half * cam.shift_y
 
 
 class FrameTracer:
@@ -375,7 +387,8 @@ class FrameTracer:
         self.seconds = {"read_build_s": time.perf_counter() - t0, "trace_s": 0.0}
         m = np.array(scene.camera.matrix_world)
         self.width, self.height = width, height
-        self.origins, self.directions = camera_rays(m, vertical_fov(scene.camera.data, width, height), width, height)
+        self.origins, self.directions = camera_rays(m, vertical_fov(scene.camera.data, width, height), width, height,
+                                                   shift=image_shift(scene.camera.data, width, height))
         # distance along the ray -> along the camera's axis, as Cycles writes depth
         self._to_depth = self.directions @ -m[:3, 2] / np.linalg.norm(m[:3, 2])
         # the clipping planes lie at depths along the camera's axis, as Cycles takes them

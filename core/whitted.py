@@ -65,8 +65,10 @@ class Image:
     stats: dict = field(default_factory=dict)
 
 
-def camera_rays(matrix_world, fov_y, width, height):
-    """Pinhole rays through pixel centres, rows top to bottom; the camera looks down its -z."""
+def camera_rays(matrix_world, fov_y, width, height, shift=(0.0, 0.0)):
+    """Pinhole rays through pixel centres, rows top to bottom; the camera looks down its -z.
+    ``shift``: where the image's centre lies on the image plane at distance 1 (a shifted lens,
+    in the units of tan(fov_y / 2)): the view moves, its perspective stays."""
     m = np.asarray(matrix_world, float)
     if width < 1 or height < 1:
         raise ValueError(f"the image needs at least 1 x 1 pixels, got {width} x {height}")
@@ -74,8 +76,8 @@ def camera_rays(matrix_world, fov_y, width, height):
         raise ValueError(f"the vertical field of view must be in (0, pi), got {fov_y}")
     half_h = np.tan(0.5 * fov_y)
     half_w = half_h * width / height
-    x = ((np.arange(width) + 0.5) / width * 2 - 1) * half_w
-    y = (1 - (np.arange(height) + 0.5) / height * 2) * half_h
+    x = ((np.arange(width) + 0.5) / width * 2 - 1) * half_w + shift[0]
+    y = (1 - (np.arange(height) + 0.5) / height * 2) * half_h + shift[1]
     gx, gy = np.meshgrid(x, y)
     local = np.stack([gx.ravel(), gy.ravel(), -np.ones(gx.size)], 1)
     d = local @ m[:3, :3].T

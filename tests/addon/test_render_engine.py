@@ -182,6 +182,31 @@ def test_the_cameras_clipping_planes_cut_what_it_sees_at_their_depths(studio, cl
     np.testing.assert_array_equal(px, 0)
 
 
+@pytest.mark.parametrize("size", [(64, 40), (40, 64)])
+def test_a_shifted_lens_frames_the_view_as_cycles_does(studio, clean_scene, tmp_path, size):
+    """Spheres in a row seen through a lens shifted right and down, on a landscape frame (the
+    sensor fits its width) and a portrait one (its height): every object shows where Cycles
+    shows it, all but the pixels along their edges, which Cycles' pixel filter blends."""
+    scene = _engine(clean_scene)
+    _stage(scene)
+    scene.view_layers[0].use_pass_object_index = True
+    for i, x in enumerate((-1.6, -0.4, 0.8, 2.0)):
+        bpy.ops.mesh.primitive_uv_sphere_add(radius=0.45, location=(x, 0.3 * i - 0.5, 0.0))
+        bpy.context.active_object.pass_index = i + 1
+    cam = scene.camera.data
+    cam.shift_x, cam.shift_y = 0.3, -0.2
+    ours = _render(studio, scene, tmp_path, size=size, passes=("IndexOB",))
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples, scene.cycles.filter_width = 1, 0.01
+    cycles = _render(studio, scene, tmp_path, size=size, passes=("IndexOB",))
+    assert len(np.unique(cycles)) >= 3  # the shift keeps most of the row in view
+    covered = (ours > 0) | (cycles > 0)
+    assert (ours[covered] == cycles[covered]).mean() > 0.97  # 1.0 here
+    cam.shift_x = cam.shift_y = 0.0
+    scene.render.engine = "DEFORMRT_LAYERED"
+    assert (_render(studio, scene, tmp_path, size=size, passes=("IndexOB",)) != ours).mean() > 0.05
+
+
 def _white_floor(scene):
     """No sun, a 40 m white floor under the camera: a stage for one light's own light."""
     _stage(scene, sun_strength=0.0)

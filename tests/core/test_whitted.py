@@ -154,6 +154,17 @@ def test_clipping_cuts_what_camera_rays_see_and_not_what_they_reflect():
         render(scene, colours, sun, o, d, clip=(0.5, 0.5))
 
 
+def test_a_shifted_lens_moves_the_view_and_keeps_its_perspective():
+    """Shifting by (sx, sy) on the image plane at distance 1 aims the middle of the frame along
+    (sx, sy, -1), and every ray is the unshifted ray of the point sx, sy further on that plane."""
+    o, d = camera_rays(np.eye(4), np.radians(40), 5, 3, shift=(0.3, -0.2))
+    np.testing.assert_allclose(d[7], np.array([0.3, -0.2, -1.0]) / np.linalg.norm([0.3, -0.2, -1.0]))
+    _, plain = camera_rays(np.eye(4), np.radians(40), 5, 3)
+    on_plane = plain / -plain[:, 2:3] + [0.3, -0.2, 0.0]
+    np.testing.assert_allclose(d, on_plane / np.linalg.norm(on_plane, axis=1, keepdims=True))
+    np.testing.assert_array_equal(o, 0.0)
+
+
 def test_z_fighting_sheets_show_only_the_higher_layer():
     v, f = sheet(size=1.0, n=20, z=0.0)
     wiggle = v.copy()
