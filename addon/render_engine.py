@@ -377,7 +377,9 @@ class FrameTracer:
     colour lights every surface as ambient (a uniform sky of radiance L gives a Lambert
     surface albedo L), as it does in Cycles, without occlusion."""
 
-    def __init__(self, depsgraph, width, height):
+    def __init__(self, depsgraph, width, height, window=None):
+        """``window``: (left, top, width, height) in pixels from the frame's top left, the part
+        of the width x height frame to trace (a render border); None for all of it."""
         scene = depsgraph.scene
         settings = scene.deformrt
         t0 = time.perf_counter()
@@ -386,9 +388,13 @@ class FrameTracer:
         self.surfaces = Surfaces.build(self.scene, materials, slots, uvs, shading)  # once for every band
         self.seconds = {"read_build_s": time.perf_counter() - t0, "trace_s": 0.0}
         m = np.array(scene.camera.matrix_world)
-        self.width, self.height = width, height
         self.origins, self.directions = camera_rays(m, vertical_fov(scene.camera.data, width, height), width, height,
                                                    shift=image_shift(scene.camera.data, width, height))
+        self.width, self.height = width, height
+        if window is not None and tuple(window) != (0, 0, width, height):
+            left, top, self.width, self.height = window
+            pick = ((np.arange(top, top + self.height) * width)[:, None] + np.arange(left, left + self.width)).ravel()
+            self.origins, self.directions = self.origins[pick], self.directions[pick]
         # distance along the ray -> along the camera's axis, as Cycles writes depth
         self._to_depth = self.directions @ -m[:3, 2] / np.linalg.norm(m[:3, 2])
         # the clipping planes lie at depths along the camera's axis, as Cycles takes them
@@ -450,6 +456,9 @@ class DEFORMRT_RE_layered(bpy.types.RenderEngine):
         scene = depsgraph.scene
         scale = scene.render.resolution_percentage / 100.0
         w, h = int(scene.render.resolution_x * scale), int(scene.render.resolution_y * scale)
+        # with a render border Blender asks for its pixels only, and the results' rows and
+        # columns count from its corner: the frame traced here is the border's
+        left, bottom_row, bw, bh = render_window(scene.render, w, h)
         self.add_pass(FIXED_PASS, 1, "X")
         cam = scene.camera
         if cam is None or cam.type != "CAMERA" or cam.data.type != "PERSP":
@@ -458,7 +467,7 @@ class DEFORMRT_RE_layered(bpy.types.RenderEngine):
             return
         self.update_stats("", "DeformRT: reading the scene")
         try:
-            tracer = FrameTracer(depsgraph, w, h)
+            tracer = FrameTracer(depsgraph, w, h, window=(left, h - bottom_row - bh, bw, bh))
             if tracer.kept:
                 self.update_stats("", "DeformRT: ray scenes kept from the last render (Persistent Data)")
             for warning in tracer.warnings:
@@ -468,6 +477,7 @@ class DEFORMRT_RE_layered(bpy.types.RenderEngine):
             self.end_result(self.begin_result(0, 0, w, h))
             return
         pass_index = np.array([*tracer.pass_index, 0], np.float32)
+        w, h = bw, bh
         band = max(1, min(h, BAND_PIXELS // max(w, 1)))
         rays = fixed = 0
         for top in range(0, h, band):
@@ -492,6 +502,17 @@ class DEFORMRT_RE_layered(bpy.types.RenderEngine):
             self.update_stats("", f"DeformRT: {rays:,} rays, {fixed:,} pixels fixed")
             if self.test_break():
                 break
+
+
+def render_window(rd, width, height):
+    """(left, bottom, width, height) in pixels of what a render asks for: the render border's
+    pixels when one is on (as Blender rounds it: float32 fractions of the frame, truncated), else
+    the whole width x height frame."""
+    if not rd.use_border:
+        return 0, 0, width, height
+    edge = [int(np.float32(f) * np.float32(size)) for f, size in ((rd.border_min_x, width), (rd.border_max_x, width),
+                                                                  (rd.border_min_y, height), (rd.border_max_y, height))]
+    return edge[0], edge[2], max(edge[1] - edge[0], 0), max(edge[3] - edge[2], 0)
 
 
 def _panels():

@@ -92,12 +92,11 @@ def render_passes(scene, folder, passes=("Image",)):
         tree.links.new(layers.outputs[name], out.inputs[name])
     if bpy.ops.render.render() != {"FINISHED"}:
         raise RuntimeError(f"rendering {scene.name} with {scene.render.engine} failed")
-    scale = scene.render.resolution_percentage / 100
-    w, h = int(scene.render.resolution_x * scale), int(scene.render.resolution_y * scale)
     planes = {}
     for name in passes:
         path = folder / f"{name}{scene.frame_current:04d}.exr"
         img = bpy.data.images.load(str(path))
+        w, h = img.size  # the frame's, or a render border's when it crops to it
         px = np.empty(w * h * 4, np.float32)
         img.pixels.foreach_get(px)
         bpy.data.images.remove(img)

@@ -207,6 +207,32 @@ def test_a_shifted_lens_frames_the_view_as_cycles_does(studio, clean_scene, tmp_
     assert (_render(studio, scene, tmp_path, size=size, passes=("IndexOB",)) != ours).mean() > 0.05
 
 
+def test_a_render_border_renders_its_pixels_of_the_frame(studio, clean_scene, tmp_path):
+    """With a render border (Ctrl+B), the frame holds that border's pixels of the full render and
+    nothing else, where Cycles writes them; cropped to it, the image is just those pixels."""
+    scene = _engine(clean_scene)
+    _stage(scene)
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=1.2, location=(0.3, -0.2, 0.0))
+    full = _render(studio, scene, tmp_path, size=(64, 48))
+    rd = scene.render
+    rd.use_border = True
+    rd.border_min_x, rd.border_max_x, rd.border_min_y, rd.border_max_y = 0.3, 0.8, 0.25, 0.7
+    # Blender's pixels of it: float32 fractions of the frame, truncated; rows counted from the bottom
+    x0, x1, y0, y1 = (int(np.float32(f) * np.float32(n)) for f, n in ((0.3, 64), (0.8, 64), (0.25, 48), (0.7, 48)))
+    inside = np.zeros((48, 64), bool)
+    inside[48 - y1:48 - y0, x0:x1] = True
+    framed = _render(studio, scene, tmp_path, size=(64, 48))
+    np.testing.assert_array_equal(framed[inside], full[inside])
+    assert (full[inside][:, :3] > 0).any() and (framed[~inside] == 0).all()
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples = 1
+    np.testing.assert_array_equal(_render(studio, scene, tmp_path, size=(64, 48))[..., 3] > 0, inside)
+    scene.render.engine = "DEFORMRT_LAYERED"
+    rd.use_crop_to_border = True
+    np.testing.assert_array_equal(_render(studio, scene, tmp_path, size=(64, 48)),
+                                  full[inside].reshape(y1 - y0, x1 - x0, 4))
+
+
 def _white_floor(scene):
     """No sun, a 40 m white floor under the camera: a stage for one light's own light."""
     _stage(scene, sun_strength=0.0)
