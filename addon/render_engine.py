@@ -478,6 +478,7 @@ class DEFORMRT_RE_layered(bpy.types.RenderEngine):
             return
         pass_index = np.array([*tracer.pass_index, 0], np.float32)
         w, h = bw, bh
+        transparent = scene.render.film_transparent
         band = max(1, min(h, BAND_PIXELS // max(w, 1)))
         rays = fixed = 0
         for top in range(0, h, band):
@@ -485,7 +486,10 @@ class DEFORMRT_RE_layered(bpy.types.RenderEngine):
             img, depth = tracer.rows(top, bottom)
             n = len(img.index)
             hit = img.index >= 0
-            planes = {"Combined": np.column_stack([img.colour, np.ones(n)]),
+            colour = img.colour
+            if transparent:  # Film > Transparent: what camera rays see of the world is alpha 0, as in Cycles
+                colour = np.where(hit[:, None], colour, 0.0)
+            planes = {"Combined": np.column_stack([colour, hit if transparent else np.ones(n)]),
                       "Depth": np.where(hit, depth, BACKGROUND_DEPTH)[:, None],
                       "IndexOB": pass_index[img.index][:, None], FIXED_PASS: img.fixed[:, None]}
             # Blender's rows run bottom-up

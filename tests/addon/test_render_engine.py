@@ -233,6 +233,26 @@ def test_a_render_border_renders_its_pixels_of_the_frame(studio, clean_scene, tm
                                   full[inside].reshape(y1 - y0, x1 - x0, 4))
 
 
+def test_a_transparent_film_makes_the_world_alpha_zero_as_cycles_does(studio, clean_scene, tmp_path):
+    """Film > Transparent: pixels whose camera ray meets nothing are (0, 0, 0, 0), premultiplied,
+    where Cycles' are; the rest are as before, opaque."""
+    scene = _engine(clean_scene)
+    _stage(scene)
+    scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.3, 0.4, 0.5, 1)
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=1.2)
+    opaque = _render(studio, scene, tmp_path)
+    scene.render.film_transparent = True
+    clear = _render(studio, scene, tmp_path)
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples, scene.cycles.filter_width = 1, 0.01
+    cycles = _render(studio, scene, tmp_path)
+    empty = cycles[..., 3] == 0
+    assert 0.2 < empty.mean() < 0.9
+    np.testing.assert_array_equal(clear[empty], 0.0)
+    np.testing.assert_array_equal(clear[~empty], opaque[~empty])
+    np.testing.assert_allclose(opaque[empty][:, :3], np.tile([0.3, 0.4, 0.5], (int(empty.sum()), 1)), rtol=1e-6)
+
+
 def _white_floor(scene):
     """No sun, a 40 m white floor under the camera: a stage for one light's own light."""
     _stage(scene, sun_strength=0.0)
