@@ -231,13 +231,13 @@ def layered_scene(objects, layers, normals, probe, offset, keep=False):
 def scene_arrays(depsgraph, layered=True):
     """(LayeredScene, materials, face slots, face UVs, corner normals, pass indices, whether the
     LayeredScene was kept from the last render: ``layered_scene``, what it left out to say so:
-    ``finite_part``) of the meshes
+    ``finite_part``, per object whether it is hidden from the camera) of the meshes
     the depsgraph shows, in world space: per object the Materials of its slots, each triangle's
     slot, for textured materials its corners' UVs, its corners' shading normals as Blender
     gives them (None for a mesh smooth all over), and its pass index. Instances are drawn as
     they are, outside the layering. Without ``layered`` (plain ray tracing) the global
     normals, body parts and probe distances that only layering uses are not read."""
-    objects, layers, normals, materials, slots, uvs, shading, pass_index, warnings = ([] for _ in range(9))
+    objects, layers, normals, materials, slots, uvs, shading, pass_index, warnings, unseen = ([] for _ in range(10))
     settings = depsgraph.scene.deformrt
     parts = None
     for obj, a, outside, mats in _meshes(depsgraph):
@@ -257,6 +257,7 @@ def scene_arrays(depsgraph, layered=True):
         uvs.append(a.triangle_uv)
         shading.append(a.triangle_normals)
         pass_index.append(obj.pass_index)  # read now: an instance's object lasts while it is iterated
+        unseen.append(not obj.visible_camera)
         if layered and role == "BODY":
             # no vertex groups: reading them adds a modifier, and a render must not write to the scene
             parts, _ = body_parts(obj, settings.scheme, a.vertices, groups=False, depsgraph=depsgraph)
@@ -270,7 +271,7 @@ def scene_arrays(depsgraph, layered=True):
                             traced=[lay is not None and lay < top for lay in layers])
     made, kept = layered_scene(objects, layers, normals, probe, settings.offset,
                                keep=depsgraph.scene.render.use_persistent_data)
-    return made, materials, slots, uvs, shading, pass_index, kept, warnings
+    return made, materials, slots, uvs, shading, pass_index, kept, warnings, unseen
 
 
 def body_probes(objects, layers, given=None, parts=None, scheme=None, traced=None):
@@ -383,8 +384,9 @@ class FrameTracer:
         scene = depsgraph.scene
         settings = scene.deformrt
         t0 = time.perf_counter()
-        self.scene, materials, slots, uvs, shading, self.pass_index, self.kept, self.warnings = scene_arrays(
+        self.scene, materials, slots, uvs, shading, self.pass_index, self.kept, self.warnings, unseen = scene_arrays(
             depsgraph, settings.render_layered)
+        self._unseen = np.array(unseen, bool) if any(unseen) else None  # hidden from the camera
         self.surfaces = Surfaces.build(self.scene, materials, slots, uvs, shading)  # once for every band
         self.seconds = {"read_build_s": time.perf_counter() - t0, "trace_s": 0.0}
         m = np.array(scene.camera.matrix_world)
@@ -410,7 +412,7 @@ class FrameTracer:
         sl = slice(start * self.width, stop * self.width)
         img = render(self.scene, self.surfaces, self.lights, self.origins[sl], self.directions[sl],
                      background=self.sky, ambient=np.asarray(self.sky), max_depth=self.max_depth,
-                     layered=self.layered, clip=(self._clip[0][sl], self._clip[1][sl]))
+                     layered=self.layered, clip=(self._clip[0][sl], self._clip[1][sl]), unseen=self._unseen)
         self.seconds["trace_s"] += time.perf_counter() - t0
         return img, img.depth * self._to_depth[sl]
 

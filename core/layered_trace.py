@@ -267,12 +267,13 @@ class LayeredScene:
         return self._uncovered or None
 
     def first_visible(self, origins, directions, layered=True, max_skips=16, min_dist=0.0, first=None,
-                      scaled=False) -> Visible:
+                      scaled=False, unseen=None) -> Visible:
         """The hit each ray shows; with ``layered`` False, plain ray tracing. ``min_dist``
         skips what lies closer (a ray leaving a surface starts on it). ``first``: the rays'
         first hits (``min_dist`` 0) when the caller has traced them already. ``scaled``: as in
         RayScene (distances in units of each direction's length), for callers whose rays are
-        of length one already."""
+        of length one already. ``unseen``: a bool per object these rays go through (an object
+        hidden from the camera); that is not a fix of the layering."""
         # of length one once: every later round goes on along these, traced as they are
         o, d = (np.asarray(origins, float), np.asarray(directions, float)) if scaled else unit_rays(origins, directions)
         n = len(o)
@@ -301,6 +302,9 @@ class LayeredScene:
             cover = None
             if layered and self._cover_ids:
                 rejected, cover = self._rejected(o, d, hits, obj, face)
+            fixing = rejected
+            if unseen is not None:
+                rejected = rejected | np.append(np.asarray(unseen, bool), False)[obj]  # -1, a miss: the last
             again = np.flatnonzero(rejected)
             t = np.where(hits.face >= 0, hits.t + travelled, np.inf)
             if result is None:
@@ -317,8 +321,8 @@ class LayeredScene:
             if not len(again):
                 break
             live = again if live is None else live[again]
-            result.fixed[live] = True
-            result.skipped += len(again)
+            result.fixed[live[fixing[again]]] = True
+            result.skipped += int(fixing[again].sum())
             # go on from the ignored hit
             step = hits.t[again]
             d = rows(d, again)

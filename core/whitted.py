@@ -113,7 +113,7 @@ class Surfaces:
 
 def render(scene: LayeredScene, materials, lights, origins, directions, background=(0.0, 0.0, 0.0),
            ambient=0.0, max_depth=4, cutoff=0.01, layered=True, face_slots=None, face_uvs=None,
-           corner_normals=None, clip=None) -> Image:
+           corner_normals=None, clip=None, unseen=None) -> Image:
     """Colour per ray. ``materials`` one per object: a Material, or a list of them that
     ``face_slots`` (per object None or one slot per face; past the last slot, the last) picks
     from face by face; ``face_uvs`` per object None or (faces, 3, 2) UVs of each face's corners,
@@ -123,7 +123,9 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
     these once. ``background`` a colour or a function of ray directions (n, 3) -> (n, 3).
     ``clip``: (near, far) distances along each ray (numbers or one per ray) between which these
     rays see anything, as a camera's clipping planes cut what its rays see and nothing else:
-    what they reflect, refract or are shadowed by is not clipped. Depth is from the origins."""
+    what they reflect, refract or are shadowed by is not clipped. Depth is from the origins.
+    ``unseen``: a bool per object these rays pass through (hidden from the camera, as Cycles'
+    Ray Visibility > Camera off); it still shows in reflections and casts its shadows."""
     surfaces = (materials if isinstance(materials, Surfaces)
                 else Surfaces.build(scene, materials, face_slots, face_uvs, corner_normals))
     mats, face_material = surfaces.materials, surfaces.face_material
@@ -157,7 +159,7 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
     leaving = np.zeros(n)  # secondary rays start on their surface and skip it
     once = True  # each pixel at most once in the batch (camera rays), so no np.add.at needed
     while len(pixel):
-        vis = scene.first_visible(o, d, layered=layered, min_dist=leaving, scaled=True)
+        vis = scene.first_visible(o, d, layered=layered, min_dist=leaving, scaled=True, unseen=unseen if once else None)
         stats["rays"] += len(pixel)
         if first is None:
             if far is not None:

@@ -253,6 +253,35 @@ def test_a_transparent_film_makes_the_world_alpha_zero_as_cycles_does(studio, cl
     np.testing.assert_allclose(opaque[empty][:, :3], np.tile([0.3, 0.4, 0.5], (int(empty.sum()), 1)), rtol=1e-6)
 
 
+def test_an_object_hidden_from_the_camera_still_casts_its_shadow(studio, clean_scene, tmp_path):
+    """A ball over a floor with Ray Visibility > Camera off: camera rays pass through it to the
+    floor, whose object index shows everywhere as in Cycles, and its shadow stays: the floor
+    under it gets the world's light only."""
+    scene = _engine(clean_scene)
+    _stage(scene, sun_strength=2.0)
+    scene.view_layers[0].use_pass_object_index = True
+    bpy.ops.mesh.primitive_plane_add(size=20.0)
+    bpy.context.active_object.pass_index = 1
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.8, location=(0, 0, 1.5))
+    ball = bpy.context.active_object
+    ball.pass_index = 2
+    seen = _render(studio, scene, tmp_path, passes=("IndexOB",))
+    assert (seen == 2).mean() > 0.05
+    ball.visible_camera = False
+    px = _render(studio, scene, tmp_path, passes=("Image", "IndexOB"))
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples, scene.cycles.filter_width = 1, 0.01
+    np.testing.assert_array_equal(px["IndexOB"], _render(studio, scene, tmp_path, passes=("IndexOB",)))
+    np.testing.assert_array_equal(px["IndexOB"], 1)
+    # the floor point each pixel sees (5 m below the 50 mm lens: 1.8 m from the middle to the
+    # edge); the sun straight down casts the ball's shadow as a disc of its radius
+    c = ((np.arange(32) + 0.5) / 32 * 2 - 1) * 1.8
+    r = np.hypot(c[None, :], c[::-1, None])
+    np.testing.assert_allclose(px["Image"][r < 0.75][:, :3], 0.0, atol=1e-6)  # a black world lights nothing
+    np.testing.assert_allclose(px["Image"][r > 0.85][:, :3], 2.0 * 0.8 / np.pi, rtol=1e-5)
+    assert (r < 0.75).sum() > 20 and ((r > 0.85) & (seen == 2)).sum() > 20  # seen past its shadow, too
+
+
 def _white_floor(scene):
     """No sun, a 40 m white floor under the camera: a stage for one light's own light."""
     _stage(scene, sun_strength=0.0)

@@ -165,6 +165,27 @@ def test_a_shifted_lens_moves_the_view_and_keeps_its_perspective():
     np.testing.assert_array_equal(o, 0.0)
 
 
+def test_an_object_unseen_by_the_camera_shows_what_is_behind_it_and_still_shadows_it():
+    """Rays down through a sheet the camera does not see: they show the floor under it, with no
+    pixel marked fixed, in the sheet's shadow (ambient only); a mirror floor still shows it."""
+    over, floor = sheet(size=2.0, n=4, z=0.5), sheet(size=2.0, n=4, z=0.0)
+    scene = LayeredScene([over, floor], [None, None])
+    o, d = down_rays(n=3)
+    mats = [Material(colour=(1, 0, 0)), Material(colour=(0, 1, 0))]
+    sun = [Light("SUN", (0, 0, -1), (1.0, 1.0, 1.0))]
+    img = render(scene, mats, sun, o, d, ambient=0.5, unseen=[True, False])
+    np.testing.assert_array_equal(img.index, 1)
+    np.testing.assert_allclose(img.depth, 1.0)
+    np.testing.assert_allclose(img.colour, np.tile([0.0, 0.5, 0.0], (len(o), 1)))
+    assert not img.fixed.any()
+    vis = scene.first_visible(o, d, unseen=[True, False])
+    np.testing.assert_array_equal(vis.obj, 1)
+    assert vis.skipped == 0
+    mirror = [mats[0], Material(colour=(0, 0, 0), mirror=1.0)]
+    img = render(scene, mirror, [], o, d, ambient=0.5, unseen=[True, False])
+    np.testing.assert_allclose(img.colour, np.tile([0.5, 0.0, 0.0], (len(o), 1)))  # the sheet, in the mirror
+
+
 def test_z_fighting_sheets_show_only_the_higher_layer():
     v, f = sheet(size=1.0, n=20, z=0.0)
     wiggle = v.copy()
