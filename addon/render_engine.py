@@ -247,6 +247,8 @@ def scene_arrays(depsgraph, layered=True):
         if not len(a.triangles):
             continue
         role = "NONE" if outside else obj.deformrt.role
+        if role == "GARMENT" and not obj.visible_camera:
+            role = "NONE"  # a garment the camera does not see covers nothing it sees
         objects.append((a.vertices, a.triangles))
         layers.append(None if role == "NONE" else (0 if role == "BODY" else obj.deformrt.layer))
         n = mesh_io.read_point_vectors(obj, GLOBAL_NORMAL_ATTRIBUTE, depsgraph) if layered and role != "NONE" else None

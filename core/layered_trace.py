@@ -96,6 +96,7 @@ class LayeredScene:
         self._has_cover[list(self._cover_ids)] = True
         self._uncovered = None  # built on the first layered shadow ray
         self._past_pokes = {}  # per layer a shadow ray leaves: _poke_bounds
+        self._seen_parts = {}  # per mask of objects camera rays pass through: _seen_part
 
     def split(self, face):
         """Global face ids -> (object, face within it); -1 for both on a miss. Only the hits are
@@ -245,6 +246,15 @@ class LayeredScene:
         faces); each object's triangles are built once for all the parts that hold them."""
         return self.scene.part([(self.first_face[i], self.first_face[i + 1]) for i in ids])
 
+    def _seen_part(self, unseen):
+        """The combined scene's part over the objects not ``unseen`` (kept per mask)."""
+        key = tuple(bool(x) for x in unseen)
+        if len(key) != len(self.layers):
+            raise ValueError(f"unseen needs one entry per object ({len(self.layers)}), got {len(key)}")
+        if key not in self._seen_parts:
+            self._seen_parts[key] = self._scene_of([i for i, hidden in enumerate(key) if not hidden])
+        return self._seen_parts[key]
+
     def _cover(self, layer):
         """The ray scene of what is worn over ``layer``."""
         if layer not in self._layer_scenes:
@@ -273,7 +283,9 @@ class LayeredScene:
         first hits (``min_dist`` 0) when the caller has traced them already. ``scaled``: as in
         RayScene (distances in units of each direction's length), for callers whose rays are
         of length one already. ``unseen``: a bool per object these rays go through (an object
-        hidden from the camera); that is not a fix of the layering."""
+        hidden from the camera): they are traced against the others only, so a surface on one
+        of those at the same place is still met."""
+        trace = self.scene if unseen is None or not np.any(unseen) else self._seen_part(unseen)
         # of length one once: every later round goes on along these, traced as they are
         o, d = (np.asarray(origins, float), np.asarray(directions, float)) if scaled else unit_rays(origins, directions)
         n = len(o)
@@ -291,7 +303,7 @@ class LayeredScene:
             if first is not None:
                 hits, first = first, None
             else:
-                hits = self.scene.intersect(o, d, min_dist=lo, scaled=True)
+                hits = trace.intersect(o, d, min_dist=lo, scaled=True)
             if cover is not None:
                 # a covering layer closer than the skip distance (coincident layers) still counts
                 nearer = np.flatnonzero(cover[0] < hits.t)
@@ -302,9 +314,6 @@ class LayeredScene:
             cover = None
             if layered and self._cover_ids:
                 rejected, cover = self._rejected(o, d, hits, obj, face)
-            fixing = rejected
-            if unseen is not None:
-                rejected = rejected | np.append(np.asarray(unseen, bool), False)[obj]  # -1, a miss: the last
             again = np.flatnonzero(rejected)
             t = np.where(hits.face >= 0, hits.t + travelled, np.inf)
             if result is None:
@@ -321,8 +330,8 @@ class LayeredScene:
             if not len(again):
                 break
             live = again if live is None else live[again]
-            result.fixed[live[fixing[again]]] = True
-            result.skipped += int(fixing[again].sum())
+            result.fixed[live] = True
+            result.skipped += len(again)
             # go on from the ignored hit
             step = hits.t[again]
             d = rows(d, again)

@@ -282,6 +282,22 @@ def test_an_object_hidden_from_the_camera_still_casts_its_shadow(studio, clean_s
     assert (r < 0.75).sum() > 20 and ((r > 0.85) & (seen == 2)).sum() > 20  # seen past its shadow, too
 
 
+def test_a_garment_hidden_from_the_camera_hides_nothing_under_it(studio, clean_scene, tmp_path):
+    """The jacket of a poking pair hidden from the camera: the shirt shows wherever it is, as it
+    does with the jacket left out of the render (a garment the camera does not see covers
+    nothing, though it still shades what is under it)."""
+    scene = _engine(clean_scene)
+    _stage(scene)
+    scene.view_layers[0].use_pass_object_index = True
+    shirt, jacket = _garment_pair(scene)
+    shirt.pass_index, jacket.pass_index = 1, 2
+    jacket.hide_render = True
+    alone = _render(studio, scene, tmp_path, passes=("IndexOB",))
+    assert (alone == 1).mean() > 0.1
+    jacket.hide_render, jacket.visible_camera = False, False
+    np.testing.assert_array_equal(_render(studio, scene, tmp_path, passes=("IndexOB",)), alone)
+
+
 def _white_floor(scene):
     """No sun, a 40 m white floor under the camera: a stage for one light's own light."""
     _stage(scene, sun_strength=0.0)
