@@ -5,7 +5,7 @@ import bpy
 from ..core.body_facts import forget_garments
 from ..operators import jellyfish as jellyfish_ops
 from ..operators import layering, tagging
-from . import cli, frame_handler, panels, preferences, properties, render_engine
+from . import cli, frame_handler, panels, preferences, properties, render_engine, staleness
 
 _classes = (*properties.CLASSES, *preferences.CLASSES, *tagging.CLASSES, *layering.CLASSES, *jellyfish_ops.CLASSES,
             *panels.CLASSES)
@@ -19,11 +19,13 @@ def register():
     preferences.apply_thread_setting()
     cli.register()
     frame_handler.register()
+    staleness.register()
     render_engine.register()
 
 
 def unregister():
     render_engine.unregister()
+    staleness.unregister()
     frame_handler.unregister()
     bpy.types.VIEW3D_MT_add.remove(jellyfish_ops.menu_add)
     cli.unregister()

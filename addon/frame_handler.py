@@ -6,7 +6,7 @@ import json
 import bpy
 from bpy.app.handlers import persistent
 
-from . import layer_resolve, results
+from . import layer_resolve, result_stack, results
 
 _busy = False
 
@@ -31,13 +31,13 @@ def on_frame_change(scene, _depsgraph=None):
 
 def restarting_cloth(scene, objects):
     """Names of garments whose unbaked cloth would start over if DeformRT's result were added
-    (or shown again) now: changing a garment's modifiers resets an unbaked cache. Reading the
-    simulated shape and writing new corrections later do not, so a simulation played from its
-    first frame is corrected live."""
+    (or shown again, or moved to its place in the stack) now: changing a garment's modifiers
+    resets an unbaked cache. Reading the simulated shape and writing new corrections later do
+    not, so a simulation played from its first frame is corrected live."""
     out = []
     for o in objects:
         mod = results.result_modifier(o)
-        if mod is not None and mod.show_viewport and mod.show_render:
+        if mod is not None and mod.show_viewport and mod.show_render and result_stack.in_place(o, mod):
             continue
         for m in o.modifiers:
             if (m.type == "CLOTH" and m.show_viewport and not m.point_cache.is_baked

@@ -16,7 +16,7 @@ from ..core import metrics
 from ..core.layering import resolve_layers
 from ..core.segmentation import get_scheme, part_of_group, segments_from_groups
 from ..core.vectors import cross, norms, rows
-from . import mesh_io, results, scene_roles
+from . import mesh_io, result_stack, results, scene_roles, staleness
 
 PART_GROUP_PREFIX = "DRT_"
 GLOBAL_NORMAL_ATTRIBUTE = "deformrt_global_normal"
@@ -137,6 +137,14 @@ def results_bypassed(garments):
                 results.set_enabled(g, True)
 
 
+@contextmanager
+def fitted_cages(garments):
+    """Garments evaluate as fitted, up to where their result sits (``result_stack``): the
+    vertices a result is made for, the same in the viewport and the render."""
+    with results_bypassed(garments), result_stack.cages_shown(garments):
+        yield
+
+
 def _trimesh(a):
     return trimesh.Trimesh(a.vertices, a.triangles, process=False, validate=False)
 
@@ -170,7 +178,7 @@ def read_meshes(objs, depsgraph):
 def read_scene(scene, scheme_name):
     """Evaluated body and garments (world space) without any earlier result applied."""
     body, garments = layered_objects(scene)
-    with results_bypassed(garments):
+    with fitted_cages(garments):
         depsgraph = bpy.context.evaluated_depsgraph_get()
         arrays = read_meshes([body, *garments], depsgraph)
         parts, source = body_parts(body, scheme_name, arrays[0].vertices)
@@ -229,6 +237,7 @@ class ResolveJob:
     t0: float
     scheme: str
     parts_known: bool
+    made_for: list  # per garment, what its result is made for (staleness.fingerprint)
 
 
 def prepare_resolve(scene, reuse_correspondence=False) -> ResolveJob:
@@ -248,6 +257,9 @@ def prepare_resolve(scene, reuse_correspondence=False) -> ResolveJob:
     probe = probe_distances(settings, parts is not None)
     if probe is not None:
         params["probe_distance"] = probe
+    shells = [result_stack.shell_after(g) for g in garments]
+    if np.any(shells):
+        params["shells"] = shells
     if settings.scheme == "NONE":
         params["segment_links"] = True  # the body's separate pieces are still one body
     if parts is not None:
@@ -259,8 +271,9 @@ def prepare_resolve(scene, reuse_correspondence=False) -> ResolveJob:
     key = _topology_key([body, *garments], arrays)
     if reuse_correspondence and key in _correspondence_cache:
         params["correspondence"] = _correspondence_cache[key]
+    made_for = [staleness.fingerprint(g, body) for g in garments]
     return ResolveJob(body, garments, arrays, params, source, key, reuse_correspondence,
-                      time.perf_counter() - t0, t0, settings.scheme, parts is not None)
+                      time.perf_counter() - t0, t0, settings.scheme, parts is not None, made_for)
 
 
 def compute_resolve(job: ResolveJob):
@@ -281,12 +294,13 @@ def finish_resolve(scene, job: ResolveJob, result) -> ResolveSummary:
     garments, arrays = job.garments, job.arrays
     t1 = time.perf_counter()
     faces_hidden = []
-    for obj, a, moved, removed in zip(garments, arrays[1:], result.moved, result.removed_faces, strict=True):
+    for obj, a, moved, removed, made_for in zip(garments, arrays[1:], result.moved, result.removed_faces,
+                                                job.made_for, strict=True):
         to_local = np.linalg.inv(a.matrix_world[:3, :3])
         hidden = np.zeros(a.n_polygons, dtype=bool)
         hidden[a.triangle_polygon[removed]] = True
         faces_hidden.append(int(hidden.sum()))
-        results.write(scene, obj, moved @ to_local.T, hidden)
+        results.write(scene, obj, moved @ to_local.T, hidden, made_for=made_for)
     write_s = time.perf_counter() - t1
     st = result.stats
     inward = []
@@ -346,7 +360,7 @@ def auto_segment(scene) -> str:
         raise LayeringInputError("Pick a part scheme (5 or 13 parts) to segment by")
     scheme = get_scheme(settings.scheme)
     body, garments = layered_objects(scene)
-    with results_bypassed(garments):
+    with fitted_cages(garments):
         depsgraph = bpy.context.evaluated_depsgraph_get()
         arrays = read_meshes([body, *garments], depsgraph)
         parts, source = body_parts(body, settings.scheme, arrays[0].vertices, painted_groups=False)
@@ -369,9 +383,12 @@ def inspect_scene(scene) -> dict:
     """Crossings, poke-through and distortion of the tagged layers as fitted and as shown now."""
     body, garments = layered_objects(scene)
     objs = [body, *garments]
+    stale = staleness.check_scene(scene)
     with results_bypassed(garments):
         depsgraph = bpy.context.evaluated_depsgraph_get()
         fitted = read_meshes(objs, depsgraph)
+    with fitted_cages(garments):
+        cages = read_meshes(garments, bpy.context.evaluated_depsgraph_get())
     depsgraph = bpy.context.evaluated_depsgraph_get()
     now = read_meshes(objs, depsgraph)
     before = [(a.vertices, a.triangles) for a in fitted]
@@ -389,10 +406,11 @@ def inspect_scene(scene) -> dict:
         "poke_through_after": metrics.poke_through(after, cameras=cameras)[0],
         "max_move": 0.0,
         "max_stretch": 1.0,
+        "stale": [[g.name, reason] for g, reason in stale],
     }
-    for obj, a in zip(garments, fitted[1:], strict=True):
+    for obj, a in zip(garments, cages, strict=True):
         off = results.read_offsets(obj, len(a.vertices))
-        if off is None:
+        if off is None or any(g == obj for g, _ in stale):
             continue
         d = metrics.distortion(a.vertices, a.vertices + off @ a.matrix_world[:3, :3].T, a.triangles)
         report["max_move"] = max(report["max_move"], d["max_move"])
@@ -401,6 +419,8 @@ def inspect_scene(scene) -> dict:
                          f"poke-through {100 * report['poke_through_before']:.2f}% -> "
                          f"{100 * report['poke_through_after']:.2f}%, max move {1000 * report['max_move']:.1f} mm, "
                          f"max edge stretch {report['max_stretch']:.2f}x")
+    if stale:
+        report["message"] += f"; out of date, shown as fitted: {', '.join(g.name for g, _ in stale)}"
     return report
 
 

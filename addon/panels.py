@@ -4,7 +4,7 @@ import json
 
 import bpy
 
-from . import jellyfish, scene_roles
+from . import jellyfish, scene_roles, staleness
 
 
 class DEFORMRT_PT_layers(bpy.types.Panel):
@@ -31,9 +31,10 @@ class DEFORMRT_PT_layers(bpy.types.Panel):
             return
         box = layout.box()
         # Outermost first, the way the garments are seen from outside.
+        stale = dict(staleness.stale_garments(scene))
         for obj in reversed(garments):
             row = box.row(align=True)
-            row.label(text=obj.name, icon="MOD_CLOTH")
+            row.label(text=obj.name, icon="ERROR" if obj in stale else "MOD_CLOTH")
             row.label(text=f"layer {obj.deformrt.layer}")
             up = row.operator("deformrt.move_layer", text="", icon="TRIA_UP")
             up.object_name, up.direction = obj.name, "UP"
@@ -48,6 +49,12 @@ class DEFORMRT_PT_layers(bpy.types.Panel):
         layers = [o.deformrt.layer for o in garments]
         if len(set(layers)) != len(layers):
             layout.label(text="Two garments share a layer", icon="ERROR")
+        if stale:
+            col = layout.box().column(align=True)
+            col.label(text="Out of date, shown as fitted:", icon="ERROR")
+            for reason in stale.values():
+                col.label(text=reason)
+            col.label(text="Resolve Layers to update them")
 
 
 class DEFORMRT_PT_resolve(bpy.types.Panel):

@@ -30,7 +30,7 @@ from ..core.keys import digest
 from ..core.layered_trace import LayeredScene
 from ..core.segmentation import get_scheme, is_skirt, skirt_segments
 from ..core.whitted import Image, Light, Material, Surfaces, camera_rays, render
-from . import mesh_io
+from . import mesh_io, staleness
 from .layer_resolve import GLOBAL_NORMAL_ATTRIBUTE, body_parts, probe_distances
 
 FIXED_PASS = "DeformRT Fixed"  # 1 where a probe ray changed what the pixel shows
@@ -476,6 +476,9 @@ class DEFORMRT_RE_layered(bpy.types.RenderEngine):
                 self.update_stats("", "DeformRT: ray scenes kept from the last render (Persistent Data)")
             for warning in tracer.warnings:
                 self.report({"WARNING"}, f"DeformRT Layered: {warning}")
+            for garment, reason in staleness.stale_garments(scene):
+                self.report({"WARNING"}, f"DeformRT Layered: {garment.name} renders as fitted: {reason} since the "
+                                         "last resolve (Resolve Layers again)")
         except ValueError as exc:  # meshes or settings it cannot trace: say so, not a blank frame
             self.report({"ERROR"}, f"DeformRT Layered: {exc}")
             self.end_result(self.begin_result(0, 0, w, h))

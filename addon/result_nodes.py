@@ -1,16 +1,20 @@
 """The Geometry Nodes group that shows a garment's resolved layering without touching its mesh.
 
-The group sits last in the garment's modifier stack. It reads the correction from a small
-data object (offsets per evaluated vertex, a hidden flag per evaluated face, both stored by
-index) and applies it to whatever the stack above produced, so the garment keeps its own
-materials, UVs, modifiers and edit history; switching the modifier off shows it as fitted.
+The group sits in the garment's modifier stack where viewport and render see the same vertices
+(``result_stack``). It reads the correction from a small data object (offsets per vertex, a
+hidden flag per face, both stored by index) and applies it to what the stack above produced, so
+the garment keeps its own materials, UVs, modifiers and edit history; switching the modifier
+off shows it as fitted. A correction is never applied to a mesh it was not made for: when the
+incoming mesh has another number of points or faces than the one resolved (vertices added or
+deleted, a modifier above changed), the group passes it through unchanged, with or without the
+add-on installed.
 """
 
 import bpy
 
 GROUP_NAME = "DeformRT Result"
 # Bump when the node layout changes: files saved with an older group get it rebuilt.
-GROUP_VERSION = 2
+GROUP_VERSION = 3
 OFFSET_ATTRIBUTE = "deformrt_offset"
 HIDDEN_ATTRIBUTE = "deformrt_hidden"
 # True on the data object's points: pass the stack's own geometry through. A flag in the data
@@ -19,6 +23,15 @@ HIDDEN_ATTRIBUTE = "deformrt_hidden"
 # makes its cloth modifier start over (about 5 ms a garment). Absent (older data): shown.
 BYPASS_ATTRIBUTE = "deformrt_bypass"
 DATA_SOCKET = "Result Data"
+# The point and face counts of the mesh the correction was made for (on every data point).
+# Absent in data written before version 3: then no count is checked, as before.
+POINT_COUNT_ATTRIBUTE = "deformrt_point_count"
+FACE_COUNT_ATTRIBUTE = "deformrt_face_count"
+COUNTS_KNOWN_ATTRIBUTE = "deformrt_counts_known"
+
+
+def _socket(sockets, identifier):
+    return next(s for s in sockets if s.identifier == identifier)
 
 
 def _build(group):
@@ -53,9 +66,28 @@ def _build(group):
     drop.domain = "FACE"
     links.new(move.outputs["Geometry"], drop.inputs["Geometry"])
     links.new(sampled(HIDDEN_ATTRIBUTE, "BOOLEAN"), drop.inputs["Selection"])
+    size = nodes.new("GeometryNodeAttributeDomainSize")
+    size.component = "MESH"
+    links.new(inputs.outputs["Geometry"], size.inputs["Geometry"])
+
+    def logic(operation, a, b):
+        node = nodes.new("FunctionNodeBooleanMath")
+        node.operation = operation
+        links.new(a, node.inputs[0])
+        links.new(b, node.inputs[1])
+        return node.outputs[0]
+
+    differ = []
+    for count, attribute in (("Point Count", POINT_COUNT_ATTRIBUTE), ("Face Count", FACE_COUNT_ATTRIBUTE)):
+        compare = nodes.new("FunctionNodeCompare")
+        compare.data_type, compare.operation = "INT", "NOT_EQUAL"
+        links.new(size.outputs[count], _socket(compare.inputs, "A_INT"))
+        links.new(sampled(attribute, "INT", per_point=False), _socket(compare.inputs, "B_INT"))
+        differ.append(compare.outputs[0])
+    other_mesh = logic("AND", sampled(COUNTS_KNOWN_ATTRIBUTE, "BOOLEAN", per_point=False), logic("OR", *differ))
     switch = nodes.new("GeometryNodeSwitch")
     switch.input_type = "GEOMETRY"
-    links.new(sampled(BYPASS_ATTRIBUTE, "BOOLEAN", per_point=False), switch.inputs["Switch"])
+    links.new(logic("OR", sampled(BYPASS_ATTRIBUTE, "BOOLEAN", per_point=False), other_mesh), switch.inputs["Switch"])
     links.new(drop.outputs["Geometry"], switch.inputs["False"])
     links.new(inputs.outputs["Geometry"], switch.inputs["True"])
     links.new(switch.outputs["Output"], output.inputs["Geometry"])

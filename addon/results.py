@@ -1,26 +1,27 @@
 """Non-destructive layering results on garment objects, and baking them to plain meshes.
 
-Each resolved garment gets a "DeformRT" Geometry Nodes modifier (last in its stack) and a
-hidden data object in the "DeformRT Data" collection holding the correction. The
-garment's own mesh is never written; Clear removes both and the garment renders as fitted.
+Each resolved garment gets a "DeformRT" Geometry Nodes modifier (where ``result_stack`` puts
+it: before the modifiers that subdivide) and a hidden data object in the "DeformRT Data"
+collection holding the correction and what it was made for (``staleness``). The garment's own
+mesh is never written; Clear removes both and the garment renders as fitted.
 """
 
 import bpy
 import numpy as np
 
-from . import result_nodes, scene_roles
+from . import result_nodes, result_stack, scene_roles
 
 MODIFIER_NAME = "DeformRT"
 DATA_COLLECTION = "DeformRT Data"
 BAKED_COLLECTION = scene_roles.BAKED_COLLECTION
+# On the data object: what the result was made for, and why it no longer fits (absent: it fits).
+FINGERPRINT_PROPERTY = "deformrt_made_for"
+STALE_PROPERTY = "deformrt_stale"
 
 
 def result_modifier(obj):
     """The garment's DeformRT result modifier, or None."""
-    for mod in obj.modifiers:
-        if mod.type == "NODES" and mod.node_group is not None and mod.node_group.name == result_nodes.GROUP_NAME:
-            return mod
-    return None
+    return next((m for m in obj.modifiers if result_stack.is_result(m)), None)
 
 
 def data_object(obj):
@@ -68,10 +69,20 @@ def _hidden_collection(scene, name):
     return coll
 
 
+def _set_points(mesh, name, kind, values):
+    attr = mesh.attributes.get(name)
+    if attr is None or attr.data_type != kind or attr.domain != "POINT":
+        if attr is not None:
+            mesh.attributes.remove(attr)
+        attr = mesh.attributes.new(name, kind, "POINT")
+    attr.data.foreach_set("value", values)
+
+
 def _fill_data_mesh(mesh, offsets, hidden):
     """Offsets per vertex and hidden flags per face, both indexed from 0 on the data mesh's
-    points (a point cloud in mesh form: the Sample Index nodes read them by index)."""
-    count = max(len(offsets), len(hidden))
+    points (a point cloud in mesh form: the Sample Index nodes read them by index), and the
+    counts of the mesh they were made for."""
+    count = max(len(offsets), len(hidden), 1)
     if len(mesh.vertices) != count or mesh.polygons:
         mesh.clear_geometry()
         mesh.vertices.add(count)
@@ -87,23 +98,22 @@ def _fill_data_mesh(mesh, offsets, hidden):
     hid = np.zeros(count, dtype=bool)
     hid[:len(hidden)] = hidden
     mesh.attributes[result_nodes.HIDDEN_ATTRIBUTE].data.foreach_set("value", hid)
+    _set_points(mesh, result_nodes.POINT_COUNT_ATTRIBUTE, "INT", np.full(count, len(offsets), dtype=np.int32))
+    _set_points(mesh, result_nodes.FACE_COUNT_ATTRIBUTE, "INT", np.full(count, len(hidden), dtype=np.int32))
+    _set_points(mesh, result_nodes.COUNTS_KNOWN_ATTRIBUTE, "BOOLEAN", np.ones(count, dtype=bool))
     _set_bypass(mesh, False)
     mesh.update()  # the garment's result follows as the data's dependent
 
 
-def write(scene, obj, offsets_local, hidden_faces, stats=None) -> None:
-    """Show ``obj`` moved by ``offsets_local`` (per evaluated vertex, object space) and
-    without ``hidden_faces`` (per evaluated polygon): data object and modifier, created or
-    updated."""
+def write(scene, obj, offsets_local, hidden_faces, stats=None, made_for=None) -> None:
+    """Show ``obj`` moved by ``offsets_local`` (per vertex where the result sits, object space)
+    and without ``hidden_faces`` (per polygon there): data object and modifier, created or
+    updated, the modifier put in its place in the stack. ``made_for`` is the fingerprint of
+    what was resolved (``staleness.fingerprint``)."""
     group = result_nodes.node_group()
     key = result_nodes.data_socket_id(group)
     mod = result_modifier(obj)
-    if mod is not None and obj.modifiers[-1] != mod:
-        data = mod.get(key)
-        obj.modifiers.remove(mod)  # ours, with no settings of the user's: re-add it last
-        mod = None
-    else:
-        data = mod.get(key) if mod is not None else None
+    data = mod.get(key) if mod is not None else None
     if data is None:
         mesh = bpy.data.meshes.new(f"DeformRT {obj.name}")
         data = bpy.data.objects.new(f"DeformRT {obj.name}", mesh)
@@ -113,11 +123,16 @@ def write(scene, obj, offsets_local, hidden_faces, stats=None) -> None:
     _fill_data_mesh(data.data, offsets_local, hidden_faces)
     if stats:
         data["deformrt_stats"] = stats
+    if made_for is not None:
+        data[FINGERPRINT_PROPERTY] = made_for
+    if STALE_PROPERTY in data:
+        del data[STALE_PROPERTY]
     changed = mod is None or mod.get(key) != data or not (mod.show_viewport and mod.show_render)
     if mod is None:
         mod = obj.modifiers.new(MODIFIER_NAME, "NODES")
         mod.node_group = group
         mod.show_expanded = False
+    changed = result_stack.place(obj, mod) or changed
     if changed:
         # a new modifier or data object changes what the garment depends on; new numbers in the
         # same data do not need the garment tagged (which would start its cloth modifier over)

@@ -451,6 +451,17 @@ def _spread_from_hits(vertices, faces, topology, hit_points, amplitude, seed_ver
     return out
 
 
+def _shell_gap(shells, n_garments) -> float:
+    """What the gap between layers must add for the shells given (see resolve_layers)."""
+    if shells is None:
+        return 0.0
+    shells = np.asarray(shells, dtype=np.float64)
+    if shells.shape != (n_garments, 2) or not np.isfinite(shells).all() or (shells < 0).any():
+        raise ValueError(f"shells must be ({n_garments}, 2) finite thicknesses >= 0 (inward, outward), "
+                         f"got shape {shells.shape}")
+    return float(shells[1:, 0].max(initial=0.0) + shells[:-1, 1].max(initial=0.0))
+
+
 def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResult:
     """Move lower garment layers behind higher ones and drop triangles that still show through.
 
@@ -490,11 +501,16 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
             a body with no sharp edges (a smooth scan) rarely needs it.
         falloff: Gaussian radius c of the boundary pass's spread, scene units; default
             4 mean edge lengths of the lower layer.
+        shells: (n_garments, 2) thickness each garment gets after the resolve, inward and
+            outward of the surface given (scene units; a Solidify that runs after the
+            correction): the gap d grows by the thickest inward shell of a higher layer and
+            the thickest outward shell of a lower one, so no shell reaches the next layer.
     """
     t_start = time.perf_counter()
     timings = {}
     known = {"offset", "probe_distance", "garment_segments", "global_normals", "boundary_pass", "push_behind",
-             "body_guard", "remove_hidden", "falloff", "scheme", "segment_links", "correspondence", "segment_margin"}
+             "body_guard", "remove_hidden", "falloff", "scheme", "segment_links", "correspondence", "segment_margin",
+             "shells"}
     unknown = set(params) - known
     if unknown:
         raise ValueError(f"unknown parameter(s) {sorted(unknown)}; known: {sorted(known)}")
@@ -546,6 +562,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     d = float(params.get("offset", 1e-3 * diag))
     if not np.isfinite(d) or d < 0:
         raise ValueError(f"offset must be a finite distance >= 0, got {d}")
+    gap = d + _shell_gap(params.get("shells"), n_g)  # what a lower layer keeps behind a higher one
 
     # --- pre-processing: correspondence, global normals, segments, probe distance
     t0 = time.perf_counter()
@@ -577,7 +594,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         if s is not None and (np.shape(s) != (len(v),) or (len(s) and (np.min(s) < 0 or np.max(s) >= n_seg))):
             raise ValueError(f"garment_segments[{i}] must be {len(v)} ids in 0..{n_seg - 1}")
     prep = GarmentPrep(body, garr, body_seg, scheme, links, one_part, l_seg, radius, local_probe, junctions, margin,
-                       d, g_normals_in, g_segments_in, g_corr_in)
+                       gap, g_normals_in, g_segments_in, g_corr_in)
     corr, normals, vseg, vseg2, probe_len = prep.corr, prep.normals, prep.vseg, prep.vseg2, prep.probe_len
     traced, active = prep.traced, prep.active
     timings["correspondence_s"] = time.perf_counter() - t0
@@ -658,7 +675,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         # layer, the cloth around the hit stays too (else each resolve of the result digs it in further)
         corners = f[face[hit]]
         room = room_of(k, corners).max(1)
-        amp = np.clip(np.minimum(t[hit] + d, room), 0.0, None)
+        amp = np.clip(np.minimum(t[hit] + gap, room), 0.0, None)
         spread = _spread_from_hits(v, f, topo[k], o[hit] + n_o[hit] * t[hit, None], amp,
                                    corners.ravel(), params.get("falloff"))
         idx = np.flatnonzero(spread > 0)
@@ -673,10 +690,10 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         v = verts[k]
         if not len(v):
             return
-        # Probes start d outside the vertex, so a vertex less than d behind a higher layer
-        # is caught too: a hit at t means the layer is (t - d) behind, and moving by t
-        # leaves exactly d. Behind the farthest higher layer within reach, not the nearest.
-        t, layer, _, r, secs = _trace_layers(v + normals[k] * d, -normals[k], probe_len[k] + d, vseg2[k],
+        # Probes start the gap outside the vertex, so a vertex less than that behind a higher
+        # layer is caught too: a hit at t means the layer is (t - gap) behind, and moving by t
+        # leaves exactly the gap. Behind the farthest higher layer within reach, not the nearest.
+        t, layer, _, r, secs = _trace_layers(v + normals[k] * gap, -normals[k], probe_len[k] + gap, vseg2[k],
                                              scenes, [j for j in active if j > k], farthest=True,
                                              facing=(normals, normals[k]), skip=topo[k].loose)
         rays["push"] += r

@@ -1,0 +1,120 @@
+"""Where a garment's layering result sits in its modifier stack, and reading the garment there.
+
+The result is stored per vertex and per face by index, so it must sit where the viewport and
+the render see the same vertices: before the first modifier that subdivides (Subdivision
+Surface, Multires: their viewport and render levels differ, and a level-2 mesh has other
+indices than a level-1 one) or that runs in only one of the two. Everything above that point
+(Armature, Cloth, Shape keys, Mirror, Solidify, Bevel, ...) is what the resolve reads and
+corrects; what comes after smooths the corrected cage exactly as it would smooth the fitted one.
+Resolving the cage instead of the subdivided mesh is also what keeps a resolve fast: Blender's
+CPU subdivision of Fig 4.12's garments takes longer than the resolve itself.
+"""
+
+from contextlib import contextmanager
+
+from . import result_nodes
+
+SUBDIVIDING = frozenset({"SUBSURF", "MULTIRES"})
+
+
+def is_result(mod) -> bool:
+    return mod.type == "NODES" and mod.node_group is not None and mod.node_group.name == result_nodes.GROUP_NAME
+
+
+def _uses_is_viewport(tree, seen=None) -> bool:
+    """Whether a node tree (or a group inside it) asks whether it runs in the viewport."""
+    seen = set() if seen is None else seen
+    if tree is None or tree.name in seen:
+        return False
+    seen.add(tree.name)
+    for node in tree.nodes:
+        if node.bl_idname == "GeometryNodeIsViewport":
+            return True
+        if getattr(node, "node_tree", None) is not None and _uses_is_viewport(node.node_tree, seen):
+            return True
+    return False
+
+
+def differs_in_render(mod) -> bool:
+    """True when this modifier can give the render other vertices than the viewport."""
+    if not (mod.show_viewport or mod.show_render):
+        return False  # off in both: it changes nothing anywhere
+    if mod.type in SUBDIVIDING or mod.show_viewport != mod.show_render:
+        return True
+    return mod.type == "NODES" and _uses_is_viewport(mod.node_group)
+
+
+def user_modifiers(obj) -> list:
+    return [m for m in obj.modifiers if not is_result(m)]
+
+
+def cut_index(obj) -> int:
+    """How many of the user's modifiers run before the result: all up to the first that differs
+    in render (the user's own order is kept; the result is slotted in)."""
+    own = user_modifiers(obj)
+    return next((i for i, m in enumerate(own) if differs_in_render(m)), len(own))
+
+
+def after_cut(obj) -> list:
+    """The user's modifiers that run after the result (after where it goes, if there is none)."""
+    own = user_modifiers(obj)
+    result = next((m for m in obj.modifiers if is_result(m)), None)
+    if result is None:
+        return own[cut_index(obj):]
+    names = [m.name for m in obj.modifiers]
+    return [m for m in own if names.index(m.name) > names.index(result.name)]
+
+
+def before_result(obj) -> list:
+    """The user's modifiers that the result's input goes through."""
+    result = next((m for m in obj.modifiers if is_result(m)), None)
+    if result is None:
+        return user_modifiers(obj)[:cut_index(obj)]
+    out = []
+    for m in obj.modifiers:
+        if m == result:
+            break
+        out.append(m)
+    return out
+
+
+def in_place(obj, mod) -> bool:
+    return [m.name for m in obj.modifiers].index(mod.name) == cut_index(obj)
+
+
+def place(obj, mod) -> bool:
+    """Move the result modifier to its place in the stack; returns whether it moved."""
+    if in_place(obj, mod):
+        return False
+    obj.modifiers.move([m.name for m in obj.modifiers].index(mod.name), cut_index(obj))
+    return True
+
+
+def shell_after(obj) -> tuple[float, float]:
+    """(inward, outward) thickness, world units, that Solidify modifiers after the result add to
+    what the resolve corrects: the resolve leaves room for it between layers."""
+    scale = max(abs(s) for s in obj.matrix_world.to_scale())
+    inward = outward = 0.0
+    for mod in after_cut(obj):
+        if mod.type == "SOLIDIFY" and mod.show_render:
+            t, o = abs(mod.thickness) * scale, mod.offset if mod.thickness >= 0 else -mod.offset
+            inward, outward = inward + t * (1 - o) / 2, outward + t * (1 + o) / 2
+    return inward, outward
+
+
+@contextmanager
+def cages_shown(objs):
+    """Each object evaluates in the viewport up to where its result sits (or would sit): the
+    modifiers after that point are switched off for the moment (a cloth cache before them is
+    kept) and put back as they were, whatever happens inside."""
+    switched = []
+    try:
+        for obj in objs:
+            for mod in after_cut(obj):
+                if mod.show_viewport:
+                    mod.show_viewport = False
+                    switched.append(mod)
+        yield
+    finally:
+        for mod in switched:
+            mod.show_viewport = True

@@ -1,0 +1,226 @@
+"""What F12 renders is what was resolved: garments with the modifiers artists use (Subdivision at
+viewport 1 / render 2, Solidify, Mirror, Bevel), read from the render's own depsgraph; and a
+result that no longer fits its garment (edited, modifiers changed) is never applied to it."""
+
+import importlib
+import json
+
+import bmesh
+import bpy
+import numpy as np
+import pytest
+from mathutils.bvhtree import BVHTree
+
+from tests.addon.render_capture import rendered_meshes
+
+
+def sub(ext, path):
+    return importlib.import_module(f"{ext.__name__}.{path}")
+
+
+def overlapping_pairs(a, b) -> int:
+    """Intersecting triangle pairs between two meshes by mathutils' BVH (independent of core.metrics)."""
+    ta = BVHTree.FromPolygons(a[0].tolist(), a[1].tolist(), all_triangles=True)
+    tb = BVHTree.FromPolygons(b[0].tolist(), b[1].tolist(), all_triangles=True)
+    return len(ta.overlap(tb))
+
+
+def longest_edge(mesh) -> float:
+    v, f = mesh
+    return float(max(np.linalg.norm(v[f[:, i]] - v[f[:, (i + 1) % 3]], axis=1).max() for i in range(3)))
+
+
+def viewport_mesh(obj):
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    ev = obj.evaluated_get(depsgraph)
+    mesh = ev.to_mesh()
+    try:
+        co = np.empty(len(mesh.vertices) * 3)
+        mesh.vertices.foreach_get("co", co)
+    finally:
+        ev.to_mesh_clear()
+    return co.reshape(-1, 3)
+
+
+def _halve(obj):
+    """Keep the x >= 0 half of the mesh (a garment modelled for a Mirror modifier)."""
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    bmesh.ops.delete(bm, geom=[v for v in bm.verts if v.co.x < -1e-6], context="VERTS")
+    bm.to_mesh(obj.data)
+    bm.free()
+    obj.data.update()
+
+
+def add_stack(obj, stack):
+    for kind in stack:
+        if kind == "subdivision":  # what Ctrl+1 gives: viewport 1, render 2
+            mod = obj.modifiers.new("Subdivision", "SUBSURF")
+            mod.levels, mod.render_levels = 1, 2
+        elif kind == "solidify":
+            obj.modifiers.new("Solidify", "SOLIDIFY").thickness = 0.002  # cloth a couple of mm thick
+        elif kind == "mirror":
+            _halve(obj)
+            mod = obj.modifiers.new("Mirror", "MIRROR")
+            mod.use_clip = mod.use_mirror_merge = True
+        elif kind == "bevel":
+            obj.modifiers.new("Bevel", "BEVEL").width = 0.002
+
+
+@pytest.fixture
+def tubes(extension, clean_scene):
+    return sub(extension, "sample_scenes.tubes").build(seed=0, resolution=48)
+
+
+# Solidify after Subdivision thickens what was resolved: where the tubes' jacket comes within 6 mm of
+# the body, the shirt has no room behind its 2 mm shell, and a few triangles cross inside it, unseen.
+STACKS = [(["subdivision"], 0), (["solidify", "subdivision"], 0), (["subdivision", "solidify"], 0.05),
+          (["mirror", "subdivision"], 0), (["bevel", "subdivision"], 0)]
+
+
+@pytest.mark.parametrize(("stack", "crossing_share"), STACKS, ids=["+".join(s) for s, _ in STACKS])
+def test_f12_renders_the_resolved_layers_under_the_artists_modifiers(extension, tubes, stack, crossing_share):
+    body, (shirt, jacket) = tubes
+    metrics = sub(extension, "core.metrics")
+    for g in (shirt, jacket):
+        add_stack(g, stack)
+    scene = bpy.context.scene
+    before = rendered_meshes(scene)
+    crossing_before = overlapping_pairs(before["Shirt"], before["Jacket"])
+    assert crossing_before > 0
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    after = rendered_meshes(scene)
+    # render level 2: four times the faces of the viewport's level 1 (the render was not read at viewport level)
+    assert len(after["Jacket"][1]) > 3 * len(sub(extension, "addon.mesh_io").read_mesh(jacket).triangles)
+    assert overlapping_pairs(after["Shirt"], after["Jacket"]) <= crossing_share * crossing_before
+    assert overlapping_pairs(after["Body"], after["Shirt"]) == 0
+    layers = [after[n] for n in ("Body", "Shirt", "Jacket")]
+    poke, _, covered = metrics.poke_through(layers, cameras=metrics.camera_ring(*metrics.layer_bounds(layers),
+                                                                                 views=8, resolution=96))
+    assert covered > 0 and poke < 0.001
+    for name in ("Shirt", "Jacket"):  # a correction applied by the wrong index scrambles the surface
+        assert longest_edge(after[name]) < 2.0 * longest_edge(before[name])
+    # the user's modifiers keep their order; the result sits where viewport and render agree
+    assert [m.type for m in jacket.modifiers if m.name != "DeformRT"] == \
+           [m.type for m in shirt.modifiers if m.name != "DeformRT"]
+    names = [m.name for m in jacket.modifiers]
+    assert names.index("DeformRT") == names.index("Subdivision") - 1
+
+
+def test_fig_4_13_subdivided_renders_with_no_poke_through(extension, clean_scene):
+    metrics = sub(extension, "core.metrics")
+    sub(extension, "sample_scenes.dressed").fig_4_13(seed=0)
+    scene = bpy.context.scene
+    roles = sub(extension, "addon.scene_roles")
+    body, garments = roles.bodies(scene)[0], roles.garments(scene)
+    for g in garments:
+        add_stack(g, ["subdivision"])
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    after = rendered_meshes(scene)
+    layers = [after[o.name] for o in (body, *garments)]
+    cams = metrics.camera_ring(*metrics.layer_bounds(layers), views=8, resolution=64)
+    poke, _, covered = metrics.poke_through(layers, cameras=cams)
+    assert covered > 0 and poke < 0.005
+    for g in garments:
+        assert longest_edge(after[g.name]) < 0.05  # no scrambled face spans the figure
+
+
+def _edit(obj, how):
+    me = obj.data
+    if how == "moved":
+        co = np.empty(len(me.vertices) * 3)
+        me.vertices.foreach_get("co", co)
+        co.reshape(-1, 3)[:40] *= 1.05
+        me.vertices.foreach_set("co", co)
+        me.update()
+        return
+    bm = bmesh.new()
+    bm.from_mesh(me)
+    if how == "deleted":
+        bmesh.ops.delete(bm, geom=list(bm.verts)[:40], context="VERTS")
+    else:
+        bmesh.ops.subdivide_edges(bm, edges=list(bm.edges)[:40], cuts=1)
+    bm.to_mesh(me)
+    bm.free()
+    me.update()
+
+
+def _as_its_stack_makes_it(obj):
+    """The garment evaluated with its DeformRT modifier switched off (then on again)."""
+    mod = obj.modifiers["DeformRT"]
+    mod.show_viewport = False
+    plain = viewport_mesh(obj)
+    mod.show_viewport = True
+    return plain
+
+
+@pytest.mark.parametrize("how", ["moved", "deleted", "added"])
+def test_a_garment_edited_after_resolve_is_marked_stale_and_shown_as_fitted(extension, tubes, how):
+    body, (shirt, jacket) = tubes
+    staleness = sub(extension, "addon.staleness")
+    bpy.ops.deformrt.resolve_layers()
+    assert staleness.stale_garments(bpy.context.scene) == []
+    _edit(shirt, how)
+    bpy.context.view_layer.update()
+    stale = staleness.stale_garments(bpy.context.scene)
+    assert [g.name for g, _ in stale] == ["Shirt"] and "edited" in stale[0][1]
+    np.testing.assert_array_equal(viewport_mesh(shirt), _as_its_stack_makes_it(shirt))
+    rendered = rendered_meshes(bpy.context.scene)["Shirt"][0]
+    mw = np.array(shirt.matrix_world)
+    np.testing.assert_allclose(rendered, _as_its_stack_makes_it(shirt) @ mw[:3, :3].T + mw[:3, 3], atol=1e-6)
+    # Inspect says so too, and resolving again brings the result back
+    bpy.ops.deformrt.inspect_layers()
+    assert "out of date, shown as fitted: Shirt" in json.loads(bpy.context.scene.deformrt.last_report)["message"]
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    assert staleness.stale_garments(bpy.context.scene) == []
+    assert overlapping_pairs(rendered_meshes(bpy.context.scene)["Shirt"],
+                             rendered_meshes(bpy.context.scene)["Jacket"]) == 0
+
+
+@pytest.mark.parametrize("how", ["deleted", "added"])
+def test_a_changed_topology_is_passed_through_by_the_result_group_itself(extension, tubes, how):
+    """A file edited where DeformRT is not installed: no handler marks anything, and the group
+    still refuses to apply offsets to a mesh with other counts."""
+    body, (shirt, jacket) = tubes
+    staleness = sub(extension, "addon.staleness")
+    bpy.ops.deformrt.resolve_layers()
+    staleness.unregister()
+    try:
+        _edit(shirt, how)
+        bpy.context.view_layer.update()
+        assert staleness.stale_garments(bpy.context.scene) == []
+        np.testing.assert_array_equal(viewport_mesh(shirt), _as_its_stack_makes_it(shirt))
+    finally:
+        staleness.register()
+
+
+def test_modifier_changes_above_the_result_make_it_stale_and_below_do_not(extension, tubes):
+    body, (shirt, jacket) = tubes
+    staleness = sub(extension, "addon.staleness")
+    bpy.ops.deformrt.resolve_layers()
+    jacket.modifiers.new("Subdivision", "SUBSURF")  # after the result: it smooths the corrected garment
+    bpy.context.view_layer.update()
+    assert staleness.stale_garments(bpy.context.scene) == []
+    displace = shirt.modifiers.new("Displace", "DISPLACE")
+    displace.strength = 0.01
+    shirt.modifiers.move(len(shirt.modifiers) - 1, 0)
+    bpy.context.view_layer.update()
+    assert [(g.name, r) for g, r in staleness.stale_garments(bpy.context.scene)] == \
+           [("Shirt", "Shirt's modifiers above DeformRT changed")]
+    jacket.location.z += 0.01
+    bpy.context.view_layer.update()
+    assert ("Jacket", "Jacket was moved against Body") in \
+           [(g.name, r) for g, r in staleness.stale_garments(bpy.context.scene)]
+
+
+def test_with_resolve_on_frame_change_an_edit_is_resolved_again(extension, tubes):
+    body, (shirt, jacket) = tubes
+    staleness = sub(extension, "addon.staleness")
+    bpy.context.scene.deformrt.resolve_on_frame_change = True
+    bpy.context.scene.frame_set(1)
+    _edit(shirt, "deleted")
+    bpy.context.view_layer.update()
+    assert staleness.stale_garments(bpy.context.scene) == []
+    after = rendered_meshes(bpy.context.scene)
+    assert overlapping_pairs(after["Shirt"], after["Jacket"]) == 0
+    bpy.context.scene.deformrt.resolve_on_frame_change = False
