@@ -33,7 +33,8 @@ def blender_ext_tool() -> Path:
 
 def wheel_download_args(filename: str) -> list[str]:
     name, version, py_tag, abi_tag, plat_tag = filename[: -len(".whl")].split("-")
-    args = ["--no-deps", "--only-binary=:all:", "--python-version", "3.11", f"{name}=={version}"]
+    python = f"3.{py_tag[3:]}" if py_tag.startswith("cp3") else "3.11"  # cp313 -> 3.13; py3: any
+    args = ["--no-deps", "--only-binary=:all:", "--python-version", python, f"{name}=={version}"]
     if plat_tag != "any":
         args += ["--abi", abi_tag]
         for plat in plat_tag.split("."):

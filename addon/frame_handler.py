@@ -6,14 +6,46 @@ import json
 import bpy
 from bpy.app.handlers import persistent
 
-from . import layer_resolve, result_stack, results
+from . import blender_versions, layer_resolve, result_stack, results
 
 _busy = False
+_seen = {}  # scene name: resolve_on_frame_change as last acted on
+
+
+def switched(scene):
+    """Resolve on Frame Change was switched. Off: show the garments as simulated or posed
+    again (a correction kept from one frame would be wrong on every other). On: the next frame
+    change corrects."""
+    _seen[scene.name] = scene.deformrt.resolve_on_frame_change
+    layer_resolve.forget_correspondence()
+    if not scene.deformrt.resolve_on_frame_change:
+        layer_resolve.clear_scene(scene)
+
+
+def switch(scene, on: bool):
+    """Switch Resolve on Frame Change, with what switching it does in every Blender version."""
+    scene.deformrt.resolve_on_frame_change = on
+    if not blender_versions.PROPERTY_CALLBACKS:
+        switched(scene)
+
+
+def _notice_switch(scene):
+    """Where the property cannot call back (blender_versions), act on a switch when it is seen."""
+    if not blender_versions.PROPERTY_CALLBACKS and _seen.get(scene.name, False) != \
+            scene.deformrt.resolve_on_frame_change:
+        switched(scene)
+
+
+@persistent
+def on_depsgraph_update(scene, _depsgraph=None):
+    if not _busy:
+        _notice_switch(scene)
 
 
 @persistent
 def on_frame_change(scene, _depsgraph=None):
     global _busy
+    _notice_switch(scene)
     if _busy or not scene.deformrt.resolve_on_frame_change:
         return
     _busy = True  # reading the scene re-evaluates it; never re-enter
@@ -23,7 +55,7 @@ def on_frame_change(scene, _depsgraph=None):
         # a handler cannot report to the user: say it once in the panel and the console
         message = f"Resolve on frame change stopped at frame {scene.frame_current}: {exc}"
         print(f"DeformRT: {message}")
-        scene.deformrt.resolve_on_frame_change = False
+        switch(scene, False)
         scene.deformrt.last_report = json.dumps({"message": message})
     finally:
         _busy = False
@@ -60,9 +92,14 @@ def correct_frame(scene):
 def register():
     if on_frame_change not in bpy.app.handlers.frame_change_post:
         bpy.app.handlers.frame_change_post.append(on_frame_change)
+    if not blender_versions.PROPERTY_CALLBACKS and on_depsgraph_update not in bpy.app.handlers.depsgraph_update_post:
+        bpy.app.handlers.depsgraph_update_post.append(on_depsgraph_update)
 
 
 def unregister():
     while on_frame_change in bpy.app.handlers.frame_change_post:
         bpy.app.handlers.frame_change_post.remove(on_frame_change)
+    while on_depsgraph_update in bpy.app.handlers.depsgraph_update_post:
+        bpy.app.handlers.depsgraph_update_post.remove(on_depsgraph_update)
     layer_resolve.forget_correspondence()
+    _seen.clear()

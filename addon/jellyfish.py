@@ -19,6 +19,7 @@ from ..core import bell3d
 from ..core.bell import BellShape, Creature, phase
 from ..core.jellyfish import default_config, default_creature, simulate_cycle
 from ..core.tentacle_drift import water_drift
+from . import blender_versions
 from .mesh_io import fill_mesh
 
 PROP_MODEL, PROP_STROKE = "deformrt_jellyfish_model", "deformrt_jellyfish_stroke"
@@ -34,7 +35,7 @@ def mesoglea_material():
     if mat is not None:
         return mat
     mat = bpy.data.materials.new("DeformRT Mesoglea")
-    mat.use_nodes = True
+    blender_versions.use_nodes(mat)
     nodes, links = mat.node_tree.nodes, mat.node_tree.links
     bsdf = nodes["Principled BSDF"]
     bsdf.inputs["Base Color"].default_value = (0.85, 0.92, 1.0, 1.0)
@@ -50,7 +51,7 @@ def mesoglea_material():
 
 def _tint_material(name, colour, alpha):
     mat = bpy.data.materials.get(name) or bpy.data.materials.new(name)
-    mat.use_nodes = True
+    blender_versions.use_nodes(mat)
     bsdf = mat.node_tree.nodes["Principled BSDF"]
     bsdf.inputs["Base Color"].default_value = colour
     bsdf.inputs["Alpha"].default_value = alpha

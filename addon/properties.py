@@ -12,6 +12,7 @@ from bpy.props import (
 )
 
 from ..core.segmentation import SCHEMES
+from . import blender_versions
 
 ROLE_ITEMS = (
     ("NONE", "None", "Not part of garment layering"),
@@ -56,13 +57,9 @@ class DeformRTPartProbe(bpy.types.PropertyGroup):
 
 
 def _frame_change_toggled(self, _context):
-    """Off: show the garments as simulated or posed again (a correction kept from one frame
-    would be wrong on every other). On: the next frame change corrects."""
-    from . import layer_resolve
+    from . import frame_handler  # it imports the resolve, which needs these properties first
 
-    layer_resolve.forget_correspondence()
-    if not self.resolve_on_frame_change:
-        layer_resolve.clear_scene(self.id_data)
+    frame_handler.switched(self.id_data)
 
 
 class DeformRTSceneProperties(bpy.types.PropertyGroup):
@@ -71,7 +68,7 @@ class DeformRTSceneProperties(bpy.types.PropertyGroup):
         description="Re-run the layer correction whenever the frame changes (playback, rendering an animation); "
         "switching it off shows the garments as simulated again",
         default=False,
-        update=_frame_change_toggled,
+        update=_frame_change_toggled if blender_versions.PROPERTY_CALLBACKS else None,
     )
     scheme: EnumProperty(
         name="Body Parts",

@@ -30,7 +30,7 @@ from ..core.keys import digest
 from ..core.layered_trace import LayeredScene
 from ..core.segmentation import get_scheme, is_skirt, skirt_segments
 from ..core.whitted import Image, Light, Material, Surfaces, camera_rays, render
-from . import mesh_io, staleness
+from . import blender_versions, mesh_io, staleness
 from .layer_resolve import GLOBAL_NORMAL_ATTRIBUTE, body_parts, probe_distances
 
 FIXED_PASS = "DeformRT Fixed"  # 1 where a probe ray changed what the pixel shows
@@ -66,7 +66,7 @@ def _material(mat):
     """The Material of a Blender material; None for no material."""
     if mat is None:
         return None
-    bsdf = mat.node_tree.nodes.get("Principled BSDF") if mat.use_nodes else None
+    bsdf = mat.node_tree.nodes.get("Principled BSDF") if blender_versions.uses_nodes(mat) else None
     if bsdf is None:
         return Material(colour=tuple(mat.diffuse_color[:3]))
     value = lambda name: bsdf.inputs[name].default_value  # noqa: E731
@@ -117,9 +117,10 @@ def _lights(depsgraph, area_samples=4):
         light = obj.data
         # a Lambert surface sends E albedo / pi; power as Blender takes it: colour (times the
         # blackbody colour of its temperature when that is on) x strength x 2^exposure
-        colour = np.array(light.color) * light.energy * 2.0 ** light.exposure / np.pi
-        if light.use_temperature:
-            colour = colour * np.array(light.temperature_color)
+        colour = np.array(light.color) * blender_versions.light_power(light) / np.pi
+        tint = blender_versions.light_tint(light)
+        if tint is not None:
+            colour = colour * np.array(tint)
         if light.type == "SUN":
             out.append(Light("SUN", tuple(-m[:3, 2]), tuple(colour), shadow=light.use_shadow))
         elif light.type == "POINT":
@@ -340,7 +341,7 @@ def _nearest_part(facts, vertices, faces, parts, scheme):
 
 
 def _background(world):
-    if world is not None and world.use_nodes and "Background" in world.node_tree.nodes:
+    if world is not None and blender_versions.uses_nodes(world) and "Background" in world.node_tree.nodes:
         node = world.node_tree.nodes["Background"]
         return tuple(np.array(node.inputs["Color"].default_value[:3]) * node.inputs["Strength"].default_value)
     return tuple(world.color) if world is not None else (0.05, 0.05, 0.05)

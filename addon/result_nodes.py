@@ -12,6 +12,8 @@ add-on installed.
 
 import bpy
 
+from . import blender_versions
+
 GROUP_NAME = "DeformRT Result"
 # Bump when the node layout changes: files saved with an older group get it rebuilt.
 GROUP_VERSION = 3
@@ -28,10 +30,6 @@ DATA_SOCKET = "Result Data"
 POINT_COUNT_ATTRIBUTE = "deformrt_point_count"
 FACE_COUNT_ATTRIBUTE = "deformrt_face_count"
 COUNTS_KNOWN_ATTRIBUTE = "deformrt_counts_known"
-
-
-def _socket(sockets, identifier):
-    return next(s for s in sockets if s.identifier == identifier)
 
 
 def _build(group):
@@ -81,8 +79,10 @@ def _build(group):
     for count, attribute in (("Point Count", POINT_COUNT_ATTRIBUTE), ("Face Count", FACE_COUNT_ATTRIBUTE)):
         compare = nodes.new("FunctionNodeCompare")
         compare.data_type, compare.operation = "INT", "NOT_EQUAL"
-        links.new(size.outputs[count], _socket(compare.inputs, "A_INT"))
-        links.new(sampled(attribute, "INT", per_point=False), _socket(compare.inputs, "B_INT"))
+        # the integer pair: its own sockets up to 4.5 (A_INT, B_INT), typed A and B from 5.0
+        a, b = [s for s in compare.inputs if s.enabled][:2]
+        links.new(size.outputs[count], a)
+        links.new(sampled(attribute, "INT", per_point=False), b)
         differ.append(compare.outputs[0])
     other_mesh = logic("AND", sampled(COUNTS_KNOWN_ATTRIBUTE, "BOOLEAN", per_point=False), logic("OR", *differ))
     switch = nodes.new("GeometryNodeSwitch")
@@ -107,13 +107,14 @@ def node_group():
             old = data_socket_id(group)
         except RuntimeError:
             old = None
-        users = [(o, m, m.get(old)) for o in bpy.data.objects for m in getattr(o, "modifiers", ())
+        users = [(o, m, blender_versions.modifier_input(m, old)) for o in bpy.data.objects
+                 for m in getattr(o, "modifiers", ())
                  if old is not None and m.type == "NODES" and m.node_group == group]
         _build(group)
         new = data_socket_id(group)
         for obj, mod, data in users:
             if data is not None:
-                mod[new] = data
+                blender_versions.set_modifier_input(mod, new, data)
                 obj.update_tag()
     return group
 

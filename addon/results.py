@@ -9,7 +9,7 @@ mesh is never written; Clear removes both and the garment renders as fitted.
 import bpy
 import numpy as np
 
-from . import result_nodes, result_stack, scene_roles
+from . import blender_versions, result_nodes, result_stack, scene_roles
 
 MODIFIER_NAME = "DeformRT"
 DATA_COLLECTION = "DeformRT Data"
@@ -28,7 +28,7 @@ def data_object(obj):
     mod = result_modifier(obj)
     if mod is None:
         return None
-    return mod.get(result_nodes.data_socket_id(mod.node_group))
+    return blender_versions.modifier_input(mod, result_nodes.data_socket_id(mod.node_group))
 
 
 def set_enabled(obj, enabled: bool) -> bool:
@@ -113,7 +113,7 @@ def write(scene, obj, offsets_local, hidden_faces, stats=None, made_for=None) ->
     group = result_nodes.node_group()
     key = result_nodes.data_socket_id(group)
     mod = result_modifier(obj)
-    data = mod.get(key) if mod is not None else None
+    data = blender_versions.modifier_input(mod, key) if mod is not None else None
     if data is None:
         mesh = bpy.data.meshes.new(f"DeformRT {obj.name}")
         data = bpy.data.objects.new(f"DeformRT {obj.name}", mesh)
@@ -127,7 +127,8 @@ def write(scene, obj, offsets_local, hidden_faces, stats=None, made_for=None) ->
         data[FINGERPRINT_PROPERTY] = made_for
     if STALE_PROPERTY in data:
         del data[STALE_PROPERTY]
-    changed = mod is None or mod.get(key) != data or not (mod.show_viewport and mod.show_render)
+    changed = mod is None or blender_versions.modifier_input(mod, key) != data or \
+        not (mod.show_viewport and mod.show_render)
     if mod is None:
         mod = obj.modifiers.new(MODIFIER_NAME, "NODES")
         mod.node_group = group
@@ -136,7 +137,7 @@ def write(scene, obj, offsets_local, hidden_faces, stats=None, made_for=None) ->
     if changed:
         # a new modifier or data object changes what the garment depends on; new numbers in the
         # same data do not need the garment tagged (which would start its cloth modifier over)
-        mod[key] = data
+        blender_versions.set_modifier_input(mod, key, data)
         mod.show_viewport = mod.show_render = True
         obj.update_tag()
 
@@ -161,7 +162,7 @@ def clear(obj) -> bool:
     mod = result_modifier(obj)
     if mod is None:
         return False
-    data = mod.get(result_nodes.data_socket_id(mod.node_group))
+    data = blender_versions.modifier_input(mod, result_nodes.data_socket_id(mod.node_group))
     obj.modifiers.remove(mod)
     if data is not None and not any(data_object(o) == data for o in bpy.data.objects if o.type == "MESH"):
         mesh = data.data

@@ -19,7 +19,7 @@ import numpy as np
 from bpy.app.handlers import persistent
 
 from ..core.keys import digest
-from . import result_stack, results, scene_roles
+from . import blender_versions, result_stack, results, scene_roles
 
 # Not what a modifier does to the mesh: its place in the UI, its name, timing
 _UI_ONLY = frozenset({"rna_type", "name", "show_expanded", "show_in_editmode", "show_on_cage", "is_active",
@@ -80,7 +80,8 @@ def _modifier_settings(mod) -> list:
         elif prop.type != "COLLECTION":
             out.append((name, tuple(value) if getattr(prop, "is_array", False) else value))
     if mod.type == "NODES":
-        out += [(k, getattr(mod[k], "name", repr(mod[k]))) for k in sorted(mod.keys())]
+        inputs = blender_versions.modifier_inputs(mod)
+        out += [(k, getattr(inputs[k], "name", repr(inputs[k]))) for k in sorted(inputs)]
     return out
 
 

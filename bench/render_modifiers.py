@@ -3,7 +3,7 @@ use: Subdivision (viewport 1, render 2, as Ctrl+1 adds it), Solidify (Blender's 
 Mirror (the garment modelled as a half) and Bevel, on the seed's dressed figures. Poke-through
 and crossings are measured on the meshes the render's own depsgraph evaluates.
 
-    .venv/bin/python -m bench.render_modifiers     # writes the section of docs/REPORT.md (~25 min)
+    .venv/bin/python -m bench.render_modifiers     # writes the section of docs/REPORT.md (~20 min)
 """
 
 import importlib
@@ -17,8 +17,8 @@ from bench.blender import load_package
 from bench.report import machine, table, write_section
 from core import metrics
 
-CASES = [("fig_4_12", []), ("fig_4_12", ["subdivision"]), ("fig_4_12", ["solidify", "subdivision"]),
-         ("fig_4_12", ["subdivision", "solidify"]),
+# Fig 4.12 with Solidify at render level 2 is 10M triangles: measuring its crossings does not fit in 24 GiB
+CASES = [("fig_4_12", []), ("fig_4_12", ["subdivision"]),
          ("fig_4_13", []), ("fig_4_13", ["subdivision"]), ("fig_4_13", ["solidify", "subdivision"]),
          ("fig_4_13", ["subdivision", "solidify"]), ("fig_4_13", ["mirror", "subdivision"]),
          ("fig_4_13", ["bevel", "subdivision"])]

@@ -5,7 +5,7 @@ import time
 
 import bpy
 
-from ..addon import layer_resolve, results, scene_roles
+from ..addon import blender_versions, frame_handler, layer_resolve, results, scene_roles
 from . import background
 
 
@@ -253,7 +253,7 @@ class DEFORMRT_OT_bake_frames(_NeedsGarments, bpy.types.Operator):
     frame_start: bpy.props.IntProperty(name="Start", default=1, min=0)
     frame_end: bpy.props.IntProperty(name="End", default=250, min=0)
     filepath: bpy.props.StringProperty(name="File", subtype="FILE_PATH", default="//deformrt_layers.abc",
-                                       options={"PATH_SUPPORTS_BLEND_RELATIVE"})
+                                       options=blender_versions.path_options())
 
     def invoke(self, context, _event):
         self.frame_start, self.frame_end = context.scene.frame_start, context.scene.frame_end
@@ -280,8 +280,8 @@ class DEFORMRT_OT_bake_frames(_NeedsGarments, bpy.types.Operator):
         # playback found stays, so the cache holds what was shown; else the first frame baked
         # finds one
         kept = layer_resolve.kept_correspondence() if was_on else {}
-        settings.resolve_on_frame_change = False
-        settings.resolve_on_frame_change = True
+        frame_handler.switch(scene, False)
+        frame_handler.switch(scene, True)
         layer_resolve.keep_correspondence(kept)
         stopped, result = False, None
         try:
@@ -291,23 +291,24 @@ class DEFORMRT_OT_bake_frames(_NeedsGarments, bpy.types.Operator):
                 o.select_set(False)
             for o in (body, *garments):
                 o.select_set(True)
-            result = bpy.ops.wm.alembic_export(filepath=path, start=self.frame_start, end=self.frame_end,
-                                               selected=True, visible_objects_only=False, uvs=True,
-                                               apply_subdiv=True, as_background_job=False)
+            export = bpy.ops.wm.alembic_export
+            result = export(**blender_versions.operator_arguments(
+                export, filepath=path, start=self.frame_start, end=self.frame_end, selected=True,
+                visible_objects_only=False, uvs=True, apply_subdiv=True, as_background_job=False))
             stopped = not settings.resolve_on_frame_change
         finally:
             # back to the frame shown before with the handler off (changing frames with it on
             # right after an Alembic export crashes Blender); it corrects again from the next
             # frame change, with the same correspondence
             kept = layer_resolve.kept_correspondence()
-            settings.resolve_on_frame_change = False
+            frame_handler.switch(scene, False)
             for o in (body, *garments):
                 o.select_set(False)
             for o in selection:
                 o.select_set(True)
             scene.frame_set(frame)
             if was_on and not stopped:
-                settings.resolve_on_frame_change = True
+                frame_handler.switch(scene, True)
                 layer_resolve.keep_correspondence(kept)
         if result != {"FINISHED"} or stopped:
             self.report({"ERROR"}, "Bake stopped: " + (json.loads(settings.last_report or "{}").get("message", "")

@@ -6,6 +6,7 @@ where the bell goes, the camera and lights.
 
 import bpy
 
+from ..addon import blender_versions
 from . import studio
 
 
@@ -14,7 +15,7 @@ def build():
     scene = studio.empty_scene("Sea")
     col = scene.collection
     world = bpy.data.worlds.new("Deep")
-    world.use_nodes = True
+    blender_versions.use_nodes(world)
     world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.005, 0.03, 0.05, 1.0)
     scene.world = world
     # sea water: a box of scattering, absorbing medium (a world volume would swallow the sun)
@@ -22,7 +23,7 @@ def build():
     water = bpy.context.active_object
     water.name, water.scale = "SeaWater", (60.0, 60.0, 8.0)  # wider than the floor: no dry horizon
     mat = bpy.data.materials.new("SeaWater")
-    mat.use_nodes = True
+    blender_versions.use_nodes(mat)
     nodes, links = mat.node_tree.nodes, mat.node_tree.links
     nodes.remove(nodes["Principled BSDF"])
     volume = nodes.new("ShaderNodeVolumePrincipled")

@@ -5,6 +5,8 @@ import math
 import bpy
 from mathutils import Vector
 
+from ..addon import blender_versions
+
 
 def empty_scene(name: str):
     """Clear the current file's objects and data (keeps preferences and add-ons)."""
@@ -16,7 +18,7 @@ def empty_scene(name: str):
 
 def material(obj, name, colour, roughness=0.6):
     mat = bpy.data.materials.get(name) or bpy.data.materials.new(name)
-    mat.use_nodes = True
+    blender_versions.use_nodes(mat)
     bsdf = mat.node_tree.nodes.get("Principled BSDF")
     bsdf.inputs["Base Color"].default_value = colour
     bsdf.inputs["Roughness"].default_value = roughness
@@ -45,7 +47,7 @@ def camera_and_lights(scene, target=(0, 0, 1), distance=3.0, elevation_deg=15.0,
         light.rotation_euler = rot
         scene.collection.objects.link(light)
     world = bpy.data.worlds.new("World")
-    world.use_nodes = True
+    blender_versions.use_nodes(world)
     world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.05, 0.05, 0.06, 1.0)
     world.node_tree.nodes["Background"].inputs["Strength"].default_value = 1.0
     scene.world = world

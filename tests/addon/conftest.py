@@ -48,6 +48,12 @@ def built_zip() -> Path:
 
 
 @pytest.fixture(scope="session")
+def extension_zip() -> Path:
+    """This platform's extension zip, built from the sources when they are newer."""
+    return built_zip()
+
+
+@pytest.fixture(scope="session")
 def extension():
     """The installed extension's package (``bl_ext.deformrt_test.deformrt``)."""
     zip_path = built_zip()
