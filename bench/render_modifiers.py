@@ -24,44 +24,18 @@ CASES = [("fig_4_12", []), ("fig_4_12", ["subdivision"]),
          ("fig_4_13", ["bevel", "subdivision"])]
 
 
-def _halve(bpy, obj):
-    import bmesh
-
-    bm = bmesh.new()
-    bm.from_mesh(obj.data)
-    bmesh.ops.delete(bm, geom=[v for v in bm.verts if v.co.x < -1e-6], context="VERTS")
-    bm.to_mesh(obj.data)
-    bm.free()
-    obj.data.update()
-
-
-def add_stack(bpy, obj, stack):
-    for kind in stack:
-        if kind == "subdivision":
-            mod = obj.modifiers.new("Subdivision", "SUBSURF")
-            mod.levels, mod.render_levels = 1, 2
-        elif kind == "solidify":
-            obj.modifiers.new("Solidify", "SOLIDIFY")
-        elif kind == "mirror":
-            _halve(bpy, obj)
-            mod = obj.modifiers.new("Mirror", "MIRROR")
-            mod.use_clip = mod.use_mirror_merge = True
-        elif kind == "bevel":
-            obj.modifiers.new("Bevel", "BEVEL")
-
-
 def measure(scene_name, stack):
     load_package()
     import bpy
 
-    from tests.addon.render_capture import rendered_meshes
+    from tests.addon.render_capture import add_stack, rendered_meshes
 
     dressed = importlib.import_module("deformrt.sample_scenes.dressed")
     io = importlib.import_module("deformrt.addon.mesh_io")
     body, _, garments = getattr(dressed, scene_name)()
     objs = [body, *garments]
     for g in garments:
-        add_stack(bpy, g, stack)
+        add_stack(g, stack)
     scene = bpy.context.scene
 
     def poke(layers):

@@ -1,9 +1,58 @@
 """What F12 renders, read from the render's own depsgraph: a minimal render engine that records the
 evaluated meshes Blender hands to a render (render levels, render-only modifiers), the way
-Cycles and Eevee receive them, without shading a pixel."""
+Cycles and Eevee receive them, without shading a pixel. Also what the viewport evaluates, and the
+modifier stacks artists put on garments (tests and bench.render_modifiers)."""
 
+import bmesh
 import bpy
 import numpy as np
+
+
+def evaluated_points(obj):
+    """Object-space vertices of what the viewport evaluates for ``obj`` now."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    ev = obj.evaluated_get(depsgraph)
+    mesh = ev.to_mesh()
+    try:
+        co = np.empty(len(mesh.vertices) * 3)
+        mesh.vertices.foreach_get("co", co)
+    finally:
+        ev.to_mesh_clear()
+    return co.reshape(-1, 3)
+
+
+def _halve(obj):
+    """Keep the x >= 0 half of the mesh (a garment modelled for a Mirror modifier)."""
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    bmesh.ops.delete(bm, geom=[v for v in bm.verts if v.co.x < -1e-6], context="VERTS")
+    bm.to_mesh(obj.data)
+    bm.free()
+    obj.data.update()
+
+
+def add_stack(obj, stack, solidify_m=None, bevel_m=None):
+    """Append the named modifiers in order: "subdivision" (viewport 1, render 2, as Ctrl+1 adds it),
+    "solidify", "mirror" (the mesh halved first), "bevel"; thickness and width are Blender's
+    defaults unless given."""
+    for kind in stack:
+        if kind == "subdivision":
+            mod = obj.modifiers.new("Subdivision", "SUBSURF")
+            mod.levels, mod.render_levels = 1, 2
+        elif kind == "solidify":
+            mod = obj.modifiers.new("Solidify", "SOLIDIFY")
+            if solidify_m is not None:
+                mod.thickness = solidify_m
+        elif kind == "mirror":
+            _halve(obj)
+            mod = obj.modifiers.new("Mirror", "MIRROR")
+            mod.use_clip = mod.use_mirror_merge = True
+        elif kind == "bevel":
+            mod = obj.modifiers.new("Bevel", "BEVEL")
+            if bevel_m is not None:
+                mod.width = bevel_m
+        else:
+            raise ValueError(f"unknown modifier kind {kind!r}")
 
 _captured = {}
 

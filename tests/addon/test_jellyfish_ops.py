@@ -10,21 +10,11 @@ import numpy as np
 import pytest
 from bpy_extras import anim_utils
 
+from tests.addon.render_capture import evaluated_points
+
 
 def sub(ext, path):
     return importlib.import_module(f"{ext.__name__}.{path}")
-
-
-def evaluated_points(obj):
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    ev = obj.evaluated_get(depsgraph)
-    mesh = ev.to_mesh()
-    try:
-        co = np.empty(len(mesh.vertices) * 3)
-        mesh.vertices.foreach_get("co", co)
-    finally:
-        ev.to_mesh_clear()
-    return co.reshape(-1, 3)
 
 
 def closed_volume(points, polygons):

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 from mathutils.bvhtree import BVHTree
 
-from tests.addon.render_capture import rendered_meshes
+from tests.addon import render_capture
+from tests.addon.render_capture import evaluated_points, rendered_meshes
 
 
 def sub(ext, path):
@@ -31,40 +32,11 @@ def longest_edge(mesh) -> float:
 
 
 def viewport_mesh(obj):
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    ev = obj.evaluated_get(depsgraph)
-    mesh = ev.to_mesh()
-    try:
-        co = np.empty(len(mesh.vertices) * 3)
-        mesh.vertices.foreach_get("co", co)
-    finally:
-        ev.to_mesh_clear()
-    return co.reshape(-1, 3)
-
-
-def _halve(obj):
-    """Keep the x >= 0 half of the mesh (a garment modelled for a Mirror modifier)."""
-    bm = bmesh.new()
-    bm.from_mesh(obj.data)
-    bmesh.ops.delete(bm, geom=[v for v in bm.verts if v.co.x < -1e-6], context="VERTS")
-    bm.to_mesh(obj.data)
-    bm.free()
-    obj.data.update()
+    return evaluated_points(obj)
 
 
 def add_stack(obj, stack):
-    for kind in stack:
-        if kind == "subdivision":  # what Ctrl+1 gives: viewport 1, render 2
-            mod = obj.modifiers.new("Subdivision", "SUBSURF")
-            mod.levels, mod.render_levels = 1, 2
-        elif kind == "solidify":
-            obj.modifiers.new("Solidify", "SOLIDIFY").thickness = 0.002  # cloth a couple of mm thick
-        elif kind == "mirror":
-            _halve(obj)
-            mod = obj.modifiers.new("Mirror", "MIRROR")
-            mod.use_clip = mod.use_mirror_merge = True
-        elif kind == "bevel":
-            obj.modifiers.new("Bevel", "BEVEL").width = 0.002
+    render_capture.add_stack(obj, stack, solidify_m=0.002, bevel_m=0.002)  # cloth a couple of mm thick
 
 
 @pytest.fixture
