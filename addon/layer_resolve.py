@@ -257,9 +257,9 @@ def prepare_resolve(scene, reuse_correspondence=False) -> ResolveJob:
     probe = probe_distances(settings, parts is not None)
     if probe is not None:
         params["probe_distance"] = probe
-    shells = [result_stack.shell_after(g) for g in garments]
-    if np.any(shells):
-        params["shells"] = shells
+    shells = [result_stack.outward_shell(g) for g in garments]
+    if any(shells):
+        params["outward_shells"] = shells
     if settings.scheme == "NONE":
         params["segment_links"] = True  # the body's separate pieces are still one body
     if parts is not None:

@@ -90,16 +90,17 @@ def place(obj, mod) -> bool:
     return True
 
 
-def shell_after(obj) -> tuple[float, float]:
-    """(inward, outward) thickness, world units, that Solidify modifiers after the result add to
-    what the resolve corrects: the resolve leaves room for it between layers."""
+def outward_shell(obj) -> float:
+    """How far, in world units, Solidify modifiers after the result grow the corrected garment
+    outward (offset 1 grows it all outward, -1, the default, all inward): the resolve leaves
+    that much more room in front of it."""
     scale = max(abs(s) for s in obj.matrix_world.to_scale())
-    inward = outward = 0.0
+    outward = 0.0
     for mod in after_cut(obj):
         if mod.type == "SOLIDIFY" and mod.show_render:
-            t, o = abs(mod.thickness) * scale, mod.offset if mod.thickness >= 0 else -mod.offset
-            inward, outward = inward + t * (1 - o) / 2, outward + t * (1 + o) / 2
-    return inward, outward
+            side = mod.offset if mod.thickness >= 0 else -mod.offset
+            outward += abs(mod.thickness) * scale * (1 + side) / 2
+    return outward
 
 
 @contextmanager

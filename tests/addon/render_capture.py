@@ -33,14 +33,15 @@ def _halve(obj):
 
 def add_stack(obj, stack, solidify_m=None, bevel_m=None):
     """Append the named modifiers in order: "subdivision" (viewport 1, render 2, as Ctrl+1 adds it),
-    "solidify", "mirror" (the mesh halved first), "bevel"; thickness and width are Blender's
-    defaults unless given."""
+    "solidify" (grown inward, Blender's default), "solidify_out" (grown outward), "mirror" (the mesh
+    halved first), "bevel"; thickness and width are Blender's defaults unless given."""
     for kind in stack:
         if kind == "subdivision":
             mod = obj.modifiers.new("Subdivision", "SUBSURF")
             mod.levels, mod.render_levels = 1, 2
-        elif kind == "solidify":
+        elif kind in ("solidify", "solidify_out"):
             mod = obj.modifiers.new("Solidify", "SOLIDIFY")
+            mod.offset = 1.0 if kind == "solidify_out" else -1.0
             if solidify_m is not None:
                 mod.thickness = solidify_m
         elif kind == "mirror":

@@ -410,13 +410,12 @@ def test_the_bound_before_the_search_holds_every_normal_the_search_gives(body_ki
             assert (end >= box_lo - 1e-12).all() and (end <= box_hi + 1e-12).all()
 
 
-@pytest.mark.parametrize(("shells", "gap"), [([[0.0, 0.0], [0.003, 0.0]], 0.005),  # the higher sheet thickens in
-                                             ([[0.0, 0.004], [0.0, 0.0]], 0.006),  # the lower one out
-                                             ([[0.0, 0.0], [0.0, 0.01]], 0.002)])  # the top's outer shell: no gap
-def test_shells_a_later_modifier_adds_widen_the_gap_by_what_reaches_the_next_layer(shells, gap):
+@pytest.mark.parametrize(("shells", "gap"), [([0.0, 0.0], 0.002), ([0.004, 0.0], 0.006),  # the lower sheet grows out
+                                             ([0.0, 0.01], 0.002)])  # the top's shell meets no layer
+def test_an_outward_shell_a_later_modifier_adds_widens_the_gap_by_its_thickness(shells, gap):
     body = slab_body()
     v, f = sheet(n=30, z=0.05)  # clear of the body's floor
-    res = resolve_layers(body, [mesh(v, f), mesh(v, f)], offset=0.002, probe_distance=0.1, shells=shells)
+    res = resolve_layers(body, [mesh(v, f), mesh(v, f)], offset=0.002, probe_distance=0.1, outward_shells=shells)
     inside = (np.abs(v[:, :2]) < 0.45).all(1)
     np.testing.assert_allclose(res.garments[0].vertices[inside, 2], 0.05 - gap, atol=1e-9)
 
@@ -444,9 +443,9 @@ def test_bad_parameters_raise():
         resolve_layers(body_tube(), noisy_sleeves(), body_segments=np.zeros(3, int))
     with pytest.raises(ValueError, match="offset"):
         resolve_layers(body_tube(), noisy_sleeves(), offset=-1.0)
-    for shells in ([[0.0, 0.0]], [[0.0, 0.0], [-0.001, 0.0]], [[0.0, np.nan], [0.0, 0.0]]):
-        with pytest.raises(ValueError, match="shells"):
-            resolve_layers(body_tube(), noisy_sleeves(), shells=shells)
+    for shells in ([0.0], [0.0, -0.001], [np.nan, 0.0], [[0.0, 0.0], [0.0, 0.0]]):
+        with pytest.raises(ValueError, match="outward_shells"):
+            resolve_layers(body_tube(), noisy_sleeves(), outward_shells=shells)
 
 
 def test_a_large_offset_never_pushes_garments_into_the_body():
