@@ -2,7 +2,7 @@
 
 import bpy
 
-from ..core.body_facts import forget_garments
+from ..core.layering.body_facts import forget_garments
 from ..operators import jellyfish as jellyfish_ops
 from ..operators import layering, tagging
 from . import cli, frame_handler, panels, preferences, properties, render_engine, staleness

@@ -49,7 +49,7 @@ DEMO_SCENES = ("fig_4_12", "fig_4_13", "tubes")
 def _cmd_demo(args) -> int:
     import json
 
-    from ..core import metrics
+    from ..core.layering import metrics
     from ..sample_scenes import catalog, studio
     from . import mesh_io, scene_roles
 
@@ -136,7 +136,7 @@ def _cmd_demo(args) -> int:
 
 def _cmd_scenes(args) -> int:
     """Build each bundled scene, save it (.blend, and .glb for the figures), render it."""
-    from ..core import metrics
+    from ..core.layering import metrics
     from ..sample_scenes import catalog, dressed, studio
     from . import mesh_io, scene_roles
 

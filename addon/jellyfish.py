@@ -15,10 +15,10 @@ import json
 import bpy
 import numpy as np
 
-from ..core import bell3d
-from ..core.bell import BellShape, Creature, phase
-from ..core.jellyfish import default_config, default_creature, simulate_cycle
-from ..core.tentacle_drift import water_drift
+from ..core.jellyfish import bell3d
+from ..core.jellyfish.bell import BellShape, Creature, phase
+from ..core.jellyfish.swimming import default_config, default_creature, simulate_cycle
+from ..core.jellyfish.tentacle_drift import water_drift
 from . import blender_versions
 from .mesh_io import fill_mesh
 

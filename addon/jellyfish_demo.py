@@ -12,8 +12,8 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from ..core import bell3d
-from ..core.jellyfish import default_config, default_creature, fitness, reference_scales, simulate_cycle
+from ..core.jellyfish import bell3d
+from ..core.jellyfish.swimming import default_config, default_creature, fitness, reference_scales, simulate_cycle
 from . import jellyfish
 
 

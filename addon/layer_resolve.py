@@ -12,10 +12,10 @@ import bpy
 import numpy as np
 import trimesh
 
-from ..core import metrics
-from ..core.layering import resolve_layers
-from ..core.segmentation import get_scheme, part_of_group, segments_from_groups
-from ..core.vectors import cross, norms, rows
+from ..core.geometry.vectors import cross, norms, rows
+from ..core.layering import metrics
+from ..core.layering.resolve import resolve_layers
+from ..core.layering.segmentation import get_scheme, part_of_group, segments_from_groups
 from . import mesh_io, result_stack, results, scene_roles, staleness
 
 PART_GROUP_PREFIX = "DRT_"

@@ -11,7 +11,7 @@ from bpy.props import (
     StringProperty,
 )
 
-from ..core.segmentation import SCHEMES
+from ..core.layering.segmentation import SCHEMES
 from . import blender_versions
 
 ROLE_ITEMS = (

@@ -25,11 +25,11 @@ from dataclasses import replace
 import bpy
 import numpy as np
 
-from ..core.body_facts import body_facts, frozen
-from ..core.keys import digest
-from ..core.layered_trace import LayeredScene
-from ..core.segmentation import get_scheme, is_skirt, skirt_segments
-from ..core.whitted import Image, Light, Material, Surfaces, camera_rays, render
+from ..core.geometry.keys import digest
+from ..core.layering.body_facts import body_facts, frozen
+from ..core.layering.segmentation import get_scheme, is_skirt, skirt_segments
+from ..core.render.layered_trace import LayeredScene
+from ..core.render.whitted import Image, Light, Material, Surfaces, camera_rays, render
 from . import blender_versions, mesh_io, staleness
 from .layer_resolve import GLOBAL_NORMAL_ATTRIBUTE, body_parts, probe_distances
 

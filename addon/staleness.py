@@ -18,7 +18,7 @@ import bpy
 import numpy as np
 from bpy.app.handlers import persistent
 
-from ..core.keys import digest
+from ..core.geometry.keys import digest
 from . import blender_versions, result_stack, results, scene_roles
 
 # Not what a modifier does to the mesh: its place in the UI, its name, timing

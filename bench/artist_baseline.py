@@ -21,7 +21,7 @@ import numpy as np
 from bench.blender import load_package
 from bench.report import machine, table, write_section
 from core import metrics
-from core.correspondence import vertex_normals
+from core.geometry.normals import vertex_normals
 from core.rays import RayScene
 
 SCENES = ("fig_4_12", "fig_4_13")

@@ -20,9 +20,9 @@ from bench.blender import load_package
 from bench.layering import HEADER, measure, naive_shrink, row
 from bench.report import machine, table, write_section
 from core import metrics
-from core.body_facts import forget_garments
-from core.correspondence import vertex_normals
+from core.geometry.normals import vertex_normals
 from core.layering import resolve_layers
+from core.layering.body_facts import forget_garments
 
 
 def scene_arrays(name):

@@ -17,9 +17,9 @@ import numpy as np
 
 from bench.report import machine, table, write_section
 from core import metrics
-from core.body_facts import forget_garments
-from core.correspondence import vertex_normals
+from core.geometry.normals import vertex_normals
 from core.layering import resolve_layers
+from core.layering.body_facts import forget_garments
 from tests.core.layered_cases import body_tube, mesh, noisy_sleeves
 
 RADII = (0.163, 0.166, 0.169, 0.172)

@@ -13,7 +13,7 @@ import trimesh
 
 from bench.report import machine, table, write_section
 from core import embree_direct
-from core.parallel import map_chunks
+from core.geometry.parallel import map_chunks
 from core.rays import _MIN_RAYS_PER_CHUNK, RayScene, _float32_dist
 from tests.core.brute import moller_trumbore
 

@@ -15,7 +15,7 @@ import numpy as np
 
 from bench.blender import load_package
 from bench.report import machine, table, write_section
-from core import metrics
+from core.layering import metrics
 
 # Fig 4.12 with Solidify at render level 2 is 10M triangles: measuring its crossings does not fit in 24 GiB
 CASES = [("fig_4_12", []), ("fig_4_12", ["subdivision"]),

@@ -3,7 +3,7 @@
 import bpy
 
 from ..addon import jellyfish
-from ..core.jellyfish import default_config, optimize
+from ..core.jellyfish.swimming import default_config, optimize
 from . import background
 
 METHODS = (

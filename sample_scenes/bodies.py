@@ -6,7 +6,7 @@ import numpy as np
 
 from ..addon import mesh_io
 from ..addon.scene_roles import PART_ATTRIBUTE
-from ..core.segmentation import segments_from_groups
+from ..core.layering.segmentation import segments_from_groups
 from .figures import Figure, bone_weights
 
 

@@ -14,7 +14,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..addon import mesh_io
-from ..core.correspondence import vertex_normals
+from ..core.geometry.normals import vertex_normals
 from . import bodies, figures, fitting, garments, studio
 
 PALETTE = {

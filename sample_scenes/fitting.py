@@ -14,9 +14,10 @@ import numpy as np
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import ConvexHull, cKDTree
 
-from ..core.correspondence import nearest_on_surface, vertex_normals
-from ..core.segmentation import S13, segments_from_groups
-from ..core.topology import vertex_adjacency
+from ..core.geometry.normals import vertex_normals
+from ..core.geometry.topology import vertex_adjacency
+from ..core.layering.correspondence import nearest_on_surface
+from ..core.layering.segmentation import S13, segments_from_groups
 from .figures import Figure, limb_position
 
 _ARM_PARTS = {"upper_arm": ("right_upper_arm", "left_upper_arm"), "forearm": ("right_forearm", "left_forearm")}

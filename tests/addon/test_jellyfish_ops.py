@@ -55,7 +55,7 @@ def test_add_jellyfish_builds_a_closed_bell_of_the_right_volume_with_its_parts(j
 
 def test_optimise_in_worker_processes_then_bake_a_swim_that_keeps_its_volume(extension, jelly):
     core_jf = sub(extension, "core.jellyfish")
-    core_bell = sub(extension, "core.bell")
+    core_bell = sub(extension, "core.jellyfish.bell")
     # two worker processes import the installed extension's core without Blender's add-on machinery
     assert bpy.ops.deformrt.optimize_jellyfish(particles=30, population=4, generations=1, workers=2) == {"FINISHED"}
     stroke = json.loads(jelly["deformrt_jellyfish_stroke"])
@@ -109,7 +109,7 @@ def _key_co(block):
 
 
 def test_tentacles_go_with_the_simulated_water(extension, jelly):
-    core_jf, drift_mod = sub(extension, "core.jellyfish"), sub(extension, "core.tentacle_drift")
+    core_jf, drift_mod = sub(extension, "core.jellyfish"), sub(extension, "core.jellyfish.tentacle_drift")
     scene = bpy.context.scene
     assert bpy.ops.deformrt.bake_jellyfish(frame_start=1, frame_end=15, cycle_frames=14) == {"FINISHED"}
     tentacles = next(c for c in jelly.children if c.name.endswith("Tentacles"))

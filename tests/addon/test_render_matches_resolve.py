@@ -55,7 +55,7 @@ STACKS = [(["subdivision"], 0), (["solidify", "subdivision"], 0), (["subdivision
 @pytest.mark.parametrize(("stack", "crossing_share"), STACKS, ids=["+".join(s) for s, _ in STACKS])
 def test_f12_renders_the_resolved_layers_under_the_artists_modifiers(extension, tubes, stack, crossing_share):
     body, (shirt, jacket) = tubes
-    metrics = sub(extension, "core.metrics")
+    metrics = sub(extension, "core.layering.metrics")
     for g in (shirt, jacket):
         add_stack(g, stack)
     scene = bpy.context.scene
@@ -83,7 +83,7 @@ def test_f12_renders_the_resolved_layers_under_the_artists_modifiers(extension, 
 
 
 def test_fig_4_13_subdivided_renders_with_no_poke_through(extension, clean_scene):
-    metrics = sub(extension, "core.metrics")
+    metrics = sub(extension, "core.layering.metrics")
     sub(extension, "sample_scenes.dressed").fig_4_13(seed=0)
     scene = bpy.context.scene
     roles = sub(extension, "addon.scene_roles")

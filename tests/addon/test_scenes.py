@@ -16,7 +16,7 @@ def ext(extension):
 
 
 def sub(ext, path):
-    """A submodule of the installed extension (``sub(ext, "core.metrics")``)."""
+    """A submodule of the installed extension (``sub(ext, "core.layering.metrics")``)."""
     return importlib.import_module(f"{ext.__name__}.{path}")
 
 
@@ -41,7 +41,7 @@ def test_seed_runs_hit_their_triangle_targets(seed_run):
 
 
 def test_each_garment_clears_the_body_and_together_they_cross(seed_run, ext):
-    metrics = sub(ext, "core.metrics")
+    metrics = sub(ext, "core.layering.metrics")
     name, body, rig, garments, arrays = seed_run
     cross = metrics.layer_crossings(arrays)
     assert (cross[0] == 0).all(), f"{name}: garments cross the body: {cross[0]}"
@@ -49,7 +49,7 @@ def test_each_garment_clears_the_body_and_together_they_cross(seed_run, ext):
     assert cross[1:, 1:].sum() > 1000
     assert (cross[1:, 1:][~np.eye(len(garments), dtype=bool)] > 0).mean() >= 0.8
     # garments have real hems: boundary edges
-    topo = sub(ext, "core.topology")
+    topo = sub(ext, "core.geometry.topology")
     for v, f in arrays[1:]:
         assert topo.boundary_vertices(f, len(v)).sum() > 50
 
@@ -88,7 +88,7 @@ def test_builders_are_deterministic(ext):
 
 def test_the_skirt_is_found_as_a_skirt(ext):
     dressed = sub(ext, "sample_scenes.dressed")
-    seg = sub(ext, "core.segmentation")
+    seg = sub(ext, "core.layering.segmentation")
     body, rig, garments = dressed.dress("stocky", (dressed.Layer("pants", 0.012), dressed.Layer("skirt", 0.010)),
                                         seed=0, voxel=0.02, frames=0)
     fig = sub(ext, "sample_scenes.figures")

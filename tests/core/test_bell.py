@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from core.bell import (
+from core.jellyfish.bell import (
     BellMap,
     BellShape,
     Creature,

@@ -5,9 +5,8 @@ kept through a contraction."""
 import numpy as np
 import pytest
 
-from core import bell3d
-from core.bell import BellShape
-from core.jellyfish import default_config, default_creature
+from core.jellyfish import bell3d, default_config, default_creature
+from core.jellyfish.bell import BellShape
 
 SHAPE = BellShape()
 

@@ -3,10 +3,11 @@
 import numpy as np
 import trimesh
 
-from core import body_facts as bf_module
-from core.body_facts import body_facts, part_junctions
-from core.correspondence import local_radius, vertex_normals
+from core.geometry.normals import vertex_normals
+from core.layering import body_facts as bf_module
 from core.layering import resolve_layers
+from core.layering.body_facts import body_facts, part_junctions
+from core.layering.correspondence import local_radius
 from tests.core.layered_cases import body_tube, noisy_sleeves
 
 
@@ -71,7 +72,7 @@ def test_junction_distance_is_each_vertex_s_nearest_junction_of_its_own_part_by_
 def test_border_parts_are_the_same_with_the_lower_bound_that_skips_far_points():
     """_border_segment with a lower bound on each point's junction distance (here the exact one,
     the tightest, so points at the reach's edge are skipped or asked by a hair) against without."""
-    from core.garment_prep import _border_segment
+    from core.layering.garment_prep import _border_segment
 
     rng = np.random.default_rng(3)
     pos = rng.uniform(-1, 1, (60, 3))

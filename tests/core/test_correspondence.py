@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from core.correspondence import closest_point_on_triangles, local_radius, nearest_on_surface, vertex_normals
+from core.geometry.normals import vertex_normals
+from core.layering.correspondence import closest_point_on_triangles, local_radius, nearest_on_surface
 from sample_scenes.shapes import tube
 
 
@@ -112,7 +113,7 @@ def test_local_radius_of_a_cylinder_is_its_radius(radius):
 def test_nearest_point_over_many_pieces_on_two_threads_matches_trimesh(monkeypatch):
     """More points than one piece of the candidates' test holds, on every slice of two threads:
     each piece writes its own points' answers and no other's."""
-    import core.correspondence as corr
+    import core.layering.correspondence as corr
 
     monkeypatch.setenv("DEFORMRT_THREADS", "2")
     monkeypatch.setattr(corr, "_SEARCH_BLOCK", 97)

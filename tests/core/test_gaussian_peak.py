@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from core.gaussian_peak import largest_gaussian
+from core.layering.gaussian_peak import largest_gaussian
 
 
 def brute(points, centres, amplitude, c, reach):

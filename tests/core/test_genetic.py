@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from core import genetic
+from core.jellyfish import genetic
 
 CENTRE = np.array([0.3, 0.7, 0.2, 0.9, 0.5])
 

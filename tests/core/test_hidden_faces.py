@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from core.hidden_faces import crossing_faces
-from core.topology import edges_with_counts
+from core.geometry.topology import edges_with_counts
+from core.layering.hidden_faces import crossing_faces
 from tests.core.layered_cases import sheet
 
 

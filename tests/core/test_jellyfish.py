@@ -4,8 +4,8 @@ scallop theorem at low Reynolds number, dynamic similarity across scales; refusa
 import numpy as np
 import pytest
 
-from core.bell import BellShape, Creature
 from core.jellyfish import default_config, default_creature, simulate_cycle
+from core.jellyfish.bell import BellShape, Creature
 
 N = 40  # particles per side: coarse, but every check below holds at any resolution
 

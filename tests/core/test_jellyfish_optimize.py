@@ -4,7 +4,6 @@ Dask cluster), stoppable with a usable creature, and its fitness scaling checked
 import numpy as np
 import pytest
 
-from core.bell import Creature
 from core.jellyfish import (
     StrokeSpace,
     default_config,
@@ -14,6 +13,7 @@ from core.jellyfish import (
     reference_scales,
     simulate_cycle,
 )
+from core.jellyfish.bell import Creature
 
 CFG = default_config(particles=30)  # coarse: these tests are about the search, not the flow
 

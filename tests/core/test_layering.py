@@ -5,7 +5,7 @@ import pytest
 import trimesh
 
 from core.layering import resolve_layers
-from core.metrics import crossings, unique_edges
+from core.layering.metrics import crossings, unique_edges
 from tests.core.layered_cases import body_tube, capped_cylinder, mesh, noisy_sleeves, sheet, slab_body
 from tests.core.test_metrics import brute_crossings
 
@@ -330,7 +330,7 @@ def test_a_garment_near_no_other_skips_every_stage_and_its_normals_are_found_whe
 
 @pytest.mark.parametrize("scale", [1.0, 1e-3, 1e3])
 def test_sleeves_at_other_heights_skip_the_stages_and_change_nothing(monkeypatch, scale):
-    import core.garment_prep as prep
+    import core.layering.garment_prep as prep
     from sample_scenes.shapes import tube
 
     body = body_tube(height=0.8)
@@ -367,9 +367,9 @@ def test_sleeves_at_other_heights_skip_the_stages_and_change_nothing(monkeypatch
 def test_the_bound_before_the_search_holds_every_normal_the_search_gives(body_kind):
     """Points near sharp edges, caps of long fan triangles and a floor of two triangles:
     v + R n' and v - 3R n' stay in the box _swept_bound gives, for the n' nearest_on_surface finds."""
-    import core.garment_prep as prep
-    from core.body_facts import body_facts
-    from core.correspondence import nearest_on_surface
+    import core.layering.garment_prep as prep
+    from core.layering.body_facts import body_facts
+    from core.layering.correspondence import nearest_on_surface
 
     rng = np.random.default_rng(3)
     box = trimesh.creation.box(extents=[0.4, 0.3, 0.5])
@@ -460,8 +460,8 @@ def test_a_large_offset_never_pushes_garments_into_the_body():
 
 
 def test_culled_hem_scenes_give_the_same_hits_as_the_whole_layer():
-    from core.layering import _LayerLayout, _SegmentScenes, _trace_layers
-    from core.topology import boundary_vertices
+    from core.geometry.topology import boundary_vertices
+    from core.layering.resolve import _LayerLayout, _SegmentScenes, _trace_layers
 
     lower, upper = noisy_sleeves(n=48)
     f = np.asarray(lower.faces)
@@ -489,7 +489,7 @@ def test_culled_hem_scenes_give_the_same_hits_as_the_whole_layer():
 def test_one_scene_per_layer_gives_each_ray_only_its_own_segments_hits():
     """Rays are traced against one scene of the whole layer and pass over triangles of parts
     they may not meet: the answer is brute force over just the triangles they may meet."""
-    from core.layering import _LayerLayout, _SegmentScenes, _trace_layers
+    from core.layering.resolve import _LayerLayout, _SegmentScenes, _trace_layers
     from tests.core.brute import moller_trumbore
 
     lower, upper = noisy_sleeves(n=32)
@@ -531,7 +531,7 @@ def test_one_scene_per_layer_gives_each_ray_only_its_own_segments_hits():
 
 
 def test_segment_bounds_are_the_boxes_of_the_triangles_each_segment_may_meet():
-    from core.layering import _LayerLayout, _SegmentScenes
+    from core.layering.resolve import _LayerLayout, _SegmentScenes
 
     lower, _ = noisy_sleeves(n=24)
     v, f = np.asarray(lower.vertices), np.asarray(lower.faces)

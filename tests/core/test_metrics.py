@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from core.metrics import crossings, layer_crossings, unique_edges
+from core.layering.metrics import crossings, layer_crossings, unique_edges
 from tests.core.brute import moller_trumbore
 
 
@@ -64,7 +64,7 @@ def ray_sphere_t(o, d, r):
 
 
 def test_poke_through_zero_when_ordered_and_analytic_when_reversed():
-    from core.metrics import camera_ring, poke_through
+    from core.layering.metrics import camera_ring, poke_through
 
     inner = trimesh.creation.icosphere(subdivisions=4, radius=1.0)
     outer = trimesh.creation.icosphere(subdivisions=4, radius=1.05)
@@ -87,7 +87,7 @@ def test_poke_through_zero_when_ordered_and_analytic_when_reversed():
 
 
 def test_new_holes_limits():
-    from core.metrics import new_holes
+    from core.layering.metrics import new_holes
 
     inner = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
     outer = trimesh.creation.icosphere(subdivisions=3, radius=1.05)
@@ -102,7 +102,7 @@ def test_new_holes_limits():
 
 
 def test_distortion_of_a_uniform_scale():
-    from core.metrics import distortion
+    from core.layering.metrics import distortion
 
     m = trimesh.creation.icosphere(subdivisions=2)
     out = distortion(m.vertices, m.vertices * 1.1, m.faces)
@@ -112,7 +112,7 @@ def test_distortion_of_a_uniform_scale():
 
 
 def test_removed_area_share_of_half_a_square():
-    from core.metrics import removed_area_share
+    from core.layering.metrics import removed_area_share
 
     v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
     f = np.array([[0, 1, 2], [0, 2, 3]])

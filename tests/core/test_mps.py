@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from core.mps import Neighbours, lambda_continuous, lattice, weight
+from core.jellyfish.mps import Neighbours, lambda_continuous, lattice, weight
 
 H = 0.01
 RE = 2.1 * H

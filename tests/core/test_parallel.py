@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from core.parallel import map_chunks
+from core.geometry.parallel import map_chunks
 
 
 @pytest.mark.parametrize("threads", [1, 2, 3])

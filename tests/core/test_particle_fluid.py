@@ -4,7 +4,7 @@ start-up series), Couette, a decaying Taylor-Green vortex; conservation; stiff a
 import numpy as np
 import pytest
 
-from core.particle_fluid import Box, FluidBlowUp, LatticeFluid
+from core.jellyfish.particle_fluid import Box, FluidBlowUp, LatticeFluid
 
 H, G, NU = 1.0, 1.0, 0.1
 

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from core import embree_direct, rays
-from core.rays import RayScene, SceneUnion
+from core.rays import RayScene, SceneUnion, embree_direct
+from core.rays import scene as rays
 from tests.core.brute import edge_margin, moller_trumbore
 
 

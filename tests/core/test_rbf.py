@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.interpolate import RBFInterpolator
 
-from core.rbf import VolumeSpline
+from core.geometry.rbf import VolumeSpline
 
 SCIPY_EPS = {"gaussian": 1.3}
 

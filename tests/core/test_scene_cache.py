@@ -4,10 +4,10 @@ their memory budget."""
 import numpy as np
 import trimesh
 
-from core import scene_cache
-from core.body_facts import forget_garments
-from core.keys import digest
+from core.geometry.keys import digest
 from core.layering import resolve_layers
+from core.layering.body_facts import forget_garments
+from core.rays import scene_cache
 from tests.core.brute import moller_trumbore
 from tests.core.layered_cases import body_tube, noisy_sleeves
 

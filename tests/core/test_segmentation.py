@@ -5,9 +5,9 @@ import pytest
 import trimesh
 from scipy.spatial import ConvexHull
 
-from core.correspondence import closest_point_on_triangles
 from core.layering import resolve_layers
-from core.segmentation import (
+from core.layering.correspondence import closest_point_on_triangles
+from core.layering.segmentation import (
     S5,
     S13,
     _hull_mesh,

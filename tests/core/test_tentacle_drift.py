@@ -3,8 +3,8 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from core.jellyfish import CycleResult, default_config, default_creature, simulate_cycle
-from core.mps import lattice
-from core.tentacle_drift import periodic_drift, water_drift
+from core.jellyfish.mps import lattice
+from core.jellyfish.tentacle_drift import periodic_drift, water_drift
 
 
 def _cycle(config, velocity, speed, swum=None):

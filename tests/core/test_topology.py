@@ -5,8 +5,8 @@ import heapq
 import numpy as np
 import pytest
 
-from core.layering import _spread_from_hits
-from core.topology import path_distance, topology_of
+from core.geometry.topology import path_distance, topology_of
+from core.layering.resolve import _spread_from_hits
 from tests.core.layered_cases import sheet
 
 
@@ -102,7 +102,7 @@ def test_a_hem_tuck_stays_on_its_side_of_a_fold():
 
 
 def test_a_callers_faces_key_finds_the_topology_its_faces_are_filed_under():
-    from core.topology import faces_key
+    from core.geometry.topology import faces_key
 
     v, f = sheet(n=6)
     f32 = f.astype(np.int32)

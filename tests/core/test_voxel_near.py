@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from core.layering import _voxel_near
+from core.layering.resolve import _voxel_near
 
 
 def _nearest(centres, points, p):

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from core.layered_trace import LayeredScene
-from core.whitted import Light, Material, camera_rays, render
+from core.render.layered_trace import LayeredScene
+from core.render.whitted import Light, Material, camera_rays, render
 from tests.core.layered_cases import sheet
 
 

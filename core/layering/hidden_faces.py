@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .rays import RayScene, SceneUnion, step_past_hit
-from .topology import used_vertices
-from .vectors import box, norms, rows
+from ..geometry.topology import used_vertices
+from ..geometry.vectors import box, norms, rows
+from ..rays.scene import RayScene, SceneUnion, step_past_hit
 
 _MAX_ROUNDS = 64
 

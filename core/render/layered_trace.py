@@ -10,9 +10,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .correspondence import vertex_normals
-from .rays import RayHits, RayScene, unit_rays
-from .vectors import box, rows, unit
+from ..geometry.normals import vertex_normals
+from ..geometry.vectors import box, rows, unit
+from ..rays.scene import RayHits, RayScene, unit_rays
 
 
 @dataclass

@@ -11,12 +11,12 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ..geometry.keys import digest
+from ..geometry.topology import faces_key, topology_of
+from ..geometry.vectors import box, norms, rows
 from .body_facts import frozen
 from .correspondence import BodyCorrespondence, closest_on_table, nearest_on_surface, triangle_table
-from .keys import digest
 from .segmentation import hull_normals, is_skirt, skirt_segments
-from .topology import faces_key, topology_of
-from .vectors import box, norms, rows
 
 
 class Prepared(NamedTuple):

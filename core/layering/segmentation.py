@@ -16,11 +16,11 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError, cKDTree
 
+from ..geometry.keys import digest
+from ..geometry.parallel import map_chunks
+from ..geometry.topology import topology_of
+from ..geometry.vectors import norms, rows
 from .correspondence import closest_on_table, triangle_table
-from .keys import digest
-from .parallel import map_chunks
-from .topology import topology_of
-from .vectors import norms, rows
 
 
 @dataclass(frozen=True)

@@ -12,9 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..geometry.normals import vertex_normals as triangle_vertex_normals
+from ..geometry.rbf import VolumeSpline
 from .bell import BellShape, Creature
-from .correspondence import vertex_normals as triangle_vertex_normals
-from .rbf import VolumeSpline
 
 
 def profile(shape: BellShape, per_curve: int):

@@ -10,7 +10,7 @@ import numpy as np
 from scipy import sparse
 from scipy.spatial import cKDTree
 
-from .vectors import norms
+from ..geometry.vectors import norms
 
 
 def largest_gaussian(points: np.ndarray, centres: np.ndarray, amplitude: np.ndarray, c: float,

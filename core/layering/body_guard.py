@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..geometry.vectors import norms, rows
+from ..rays.scene import RayScene, step_past_hit
 from .metrics import crossing_edges
-from .rays import RayScene, step_past_hit
-from .vectors import norms, rows
 
 # Halvings of a move before it is taken back whole (1, 1/2, 1/4, then 0 of it kept)
 _HALVINGS = 3

@@ -9,7 +9,7 @@ from collections import OrderedDict
 
 import numpy as np
 
-from .rays import RayScene
+from .scene import RayScene
 
 # What the kept scenes may hold, about: a scene of n triangles over m vertices takes its BVH and
 # float32 buffers in Embree plus its own float64 vertices, faces and plane table

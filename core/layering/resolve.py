@@ -15,18 +15,18 @@ import time
 import numpy as np
 import trimesh
 
+from ..geometry.keys import digest
+from ..geometry.topology import path_distance, topology_of
+from ..geometry.vectors import box, norms, rows
+from ..rays.scene import RayScene, SceneUnion, step_past_hit
+from ..rays.scene_cache import kept_scene
 from .body_facts import body_facts
 from .body_guard import back_off
 from .correspondence import BodyCorrespondence
 from .garment_prep import GarmentPrep
 from .gaussian_peak import largest_gaussian
 from .hidden_faces import crossing_faces
-from .keys import digest
-from .rays import RayScene, SceneUnion, step_past_hit
-from .scene_cache import kept_scene
 from .segmentation import get_scheme
-from .topology import path_distance, topology_of
-from .vectors import box, norms, rows
 
 
 def _found_on_first_use(name, doc):

@@ -11,9 +11,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..geometry.vectors import norms, rows
+from ..rays.scene import unit_rays
 from .layered_trace import LayeredScene
-from .rays import unit_rays
-from .vectors import norms, rows
 
 LUMA = np.array([0.299, 0.587, 0.114])  # NTSC luminance weights
 

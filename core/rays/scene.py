@@ -14,10 +14,10 @@ import warnings
 
 import numpy as np
 
+from ..geometry.parallel import map_chunks, thread_count
+from ..geometry.topology import used_vertices
+from ..geometry.vectors import box, cross, norms, rows
 from . import embree_direct
-from .parallel import map_chunks, thread_count
-from .topology import used_vertices
-from .vectors import box, cross, norms, rows
 
 try:
     from embreex import rtcore as _rtc

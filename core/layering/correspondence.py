@@ -12,10 +12,11 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .parallel import map_chunks
-from .rays import RayScene
-from .topology import used_vertices
-from .vectors import box, cross, norms, rows, unit
+from ..geometry.normals import vertex_normals
+from ..geometry.parallel import map_chunks
+from ..geometry.topology import used_vertices
+from ..geometry.vectors import box, cross, norms, rows, unit
+from ..rays.scene import RayScene
 
 
 @dataclass
@@ -32,22 +33,6 @@ class BodyCorrespondence:
 
     def points(self, body_vertices: np.ndarray, body_faces: np.ndarray) -> np.ndarray:
         return np.einsum("ij,ijk->ik", self.bary, rows(body_vertices, rows(body_faces, self.triangle)))
-
-
-def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Area-weighted unit vertex normals (zero for vertices of zero-area triangles only)."""
-    f = np.asarray(faces)
-    if not len(vertices) or not len(f):
-        return np.zeros((len(vertices), 3))
-    # corner by corner and column by column: (m, 3, 3) gathers and np.cross on (m, 3) are slower
-    a, b, c = (rows(vertices, f[:, k]) for k in range(3))
-    area = cross(b - a, c - a)
-    # bincount per axis: several times faster than np.add.at
-    idx = f.T.ravel()
-    out = np.empty((len(vertices), 3))
-    for k in range(3):
-        out[:, k] = np.bincount(idx, weights=np.tile(area[:, k], 3), minlength=len(vertices))
-    return unit(out)
 
 
 def triangle_table(a, b, c, dtype=np.float64) -> np.ndarray:

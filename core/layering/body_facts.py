@@ -10,12 +10,13 @@ import numpy as np
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from .correspondence import closest_point_on_triangles, incident_triangles, local_radius, surface_search, vertex_normals
-from .keys import digest
-from .rays import RayScene
-from .scene_cache import forget_scenes
-from .topology import topology_of, vertex_adjacency
-from .vectors import box, norms, rows
+from ..geometry.keys import digest
+from ..geometry.normals import vertex_normals
+from ..geometry.topology import topology_of, vertex_adjacency
+from ..geometry.vectors import box, norms, rows
+from ..rays.scene import RayScene
+from ..rays.scene_cache import forget_scenes
+from .correspondence import closest_point_on_triangles, incident_triangles, local_radius, surface_search
 
 _KEEP = 4
 _kept: dict = {}

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .rays import RayScene
-from .topology import edges_with_counts
-from .vectors import norms, rows
+from ..geometry.topology import edges_with_counts
+from ..geometry.vectors import norms, rows
+from ..rays.scene import RayScene
 
 
 def unique_edges(faces) -> np.ndarray:

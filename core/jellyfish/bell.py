@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .rbf import VolumeSpline
+from ..geometry.rbf import VolumeSpline
 
 
 @dataclass(frozen=True)
