@@ -20,7 +20,9 @@ sys.modules["deformrt"] = _pkg
 _spec.loader.exec_module(_pkg)
 _pkg.register()
 try:
-    code = _pkg.addon.cli.main(sys.argv[1:])
+    from deformrt.operators.cli import commands
+
+    code = commands.main(sys.argv[1:])
 finally:
     _pkg.unregister()
 sys.exit(code)

@@ -12,7 +12,7 @@ from bpy.props import (
 )
 
 from ..core.layering.segmentation import SCHEMES
-from . import blender_versions
+from .io import blender_versions
 
 ROLE_ITEMS = (
     ("NONE", "None", "Not part of garment layering"),
@@ -57,7 +57,7 @@ class DeformRTPartProbe(bpy.types.PropertyGroup):
 
 
 def _frame_change_toggled(self, _context):
-    from . import frame_handler  # it imports the resolve, which needs these properties first
+    from .layers import frame_handler  # it imports the resolve, which needs these properties first
 
     frame_handler.switched(self.id_data)
 

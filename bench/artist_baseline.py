@@ -42,7 +42,7 @@ def _sub(name):
 
 def evaluated(objs):
     bpy = _bpy()
-    io = _sub("addon.mesh_io")
+    io = _sub("addon.io.mesh_io")
     depsgraph = bpy.context.evaluated_depsgraph_get()
     return [(a.vertices, a.triangles) for a in (io.read_mesh(o, depsgraph) for o in objs)]
 
@@ -75,7 +75,7 @@ def shrinkwrap(garments, l_s, d, method):
 
 def _near_group(g, outers, l_s):
     """Vertices within l_s of a higher garment (Inside mode has no distance limit of its own)."""
-    io = _sub("addon.mesh_io")
+    io = _sub("addon.io.mesh_io")
     v = io.read_mesh(g).vertices
     from scipy.spatial import cKDTree
 
@@ -90,7 +90,7 @@ def _near_group(g, outers, l_s):
 def mask_covered(garments, l_s):
     """Hide what a higher garment covers: vertices whose outward normal meets a higher
     garment within l_s (standing in for the group an artist paints), through a Mask modifier."""
-    io = _sub("addon.mesh_io")
+    io = _sub("addon.io.mesh_io")
     fitted = [io.read_mesh(g) for g in garments]
     for i, (g, a) in enumerate(zip(garments[:-1], fitted, strict=False)):
         n = vertex_normals(a.vertices, a.triangles)
@@ -145,7 +145,7 @@ def clear_artist_work(objs):
 
 def measure_figure(name, render):
     bpy = _bpy()
-    dressed, layer_resolve = _sub("sample_scenes.dressed"), _sub("addon.layer_resolve")
+    dressed, layer_resolve = _sub("sample_scenes.dressed"), _sub("addon.layers.layer_resolve")
     studio = _sub("sample_scenes.studio")
     body, _, garments = getattr(dressed, name)()
     objs = [body, *garments]
@@ -199,7 +199,7 @@ def measure_figure(name, render):
     layers = evaluated(objs)
     seconds = time.perf_counter() - t0
     # the result hides faces, so the moved vertices come from its stored offsets
-    results = _sub("addon.results")
+    results = _sub("addon.layers.results")
     # offsets are stored in object space: turn them with the object's matrix, no mesh read needed
     moved = [fitted[0]] + [(v + results.read_offsets(g, len(v)) @ np.array(g.matrix_world)[:3, :3].T, f)
                            for g, (v, f) in zip(garments, fitted[1:], strict=True)]

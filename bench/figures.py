@@ -30,8 +30,8 @@ def scene_arrays(name):
     import importlib
 
     dressed = importlib.import_module("deformrt.sample_scenes.dressed")
-    io = importlib.import_module("deformrt.addon.mesh_io")
-    roles = importlib.import_module("deformrt.addon.scene_roles")
+    io = importlib.import_module("deformrt.addon.io.mesh_io")
+    roles = importlib.import_module("deformrt.addon.layers.scene_roles")
     body, _, garments = getattr(dressed, name)()
     b = io.read_mesh(body)
     parts = io.read_point_ints(body, roles.PART_ATTRIBUTE["S5"])

@@ -24,7 +24,7 @@ def measure(name):
     import bpy
 
     dressed = importlib.import_module("deformrt.sample_scenes.dressed")
-    io = importlib.import_module("deformrt.addon.mesh_io")
+    io = importlib.import_module("deformrt.addon.io.mesh_io")
     body, _, garments = getattr(dressed, name)()
     objs = [body, *garments]
 

@@ -31,7 +31,7 @@ def measure(scene_name, stack):
     from tests.addon.render_capture import add_stack, rendered_meshes
 
     dressed = importlib.import_module("deformrt.sample_scenes.dressed")
-    io = importlib.import_module("deformrt.addon.mesh_io")
+    io = importlib.import_module("deformrt.addon.io.mesh_io")
     body, _, garments = getattr(dressed, scene_name)()
     objs = [body, *garments]
     for g in garments:

@@ -27,7 +27,7 @@ def _build(name):
 
     if name == "sheets":
         sheets = importlib.import_module("deformrt.sample_scenes.sheets")
-        frame_handler = importlib.import_module("deformrt.addon.frame_handler")
+        frame_handler = importlib.import_module("deformrt.addon.layers.frame_handler")
         made, _ = sheets.build(layers=4, per_sheet=8192, frames=40)
         scene = bpy.context.scene
         bpy.ops.ptcache.bake_all(bake=True)
@@ -43,7 +43,7 @@ def measure(name, size, picture=True):
     import bpy
 
     studio = importlib.import_module("deformrt.sample_scenes.studio")
-    engine = importlib.import_module("deformrt.addon.render_engine")
+    engine = importlib.import_module("deformrt.addon.render.engine")
     correct = _build(name)
     scene = bpy.context.scene
     meshes = [o for o in scene.objects if o.type == "MESH"]

@@ -2,7 +2,7 @@
 
 import bpy
 
-from ..addon import jellyfish
+from ..addon.jellyfish import animal as jellyfish
 from ..core.jellyfish.swimming import default_config, optimize
 from . import background
 

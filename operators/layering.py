@@ -5,7 +5,8 @@ import time
 
 import bpy
 
-from ..addon import blender_versions, frame_handler, layer_resolve, results, scene_roles
+from ..addon.io import blender_versions
+from ..addon.layers import frame_handler, layer_resolve, results, scene_roles
 from . import background
 
 

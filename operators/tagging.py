@@ -3,7 +3,7 @@
 import bpy
 from bpy.props import EnumProperty, StringProperty
 
-from ..addon import scene_roles
+from ..addon.layers import scene_roles
 
 
 def _selected_meshes(context):

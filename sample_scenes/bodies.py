@@ -4,8 +4,8 @@ and the Skin-modifier body built from a stick skeleton."""
 import bpy
 import numpy as np
 
-from ..addon import mesh_io
-from ..addon.scene_roles import PART_ATTRIBUTE
+from ..addon.io import mesh_io
+from ..addon.layers.scene_roles import PART_ATTRIBUTE
 from ..core.layering.segmentation import segments_from_groups
 from .figures import Figure, bone_weights
 

@@ -13,7 +13,7 @@ import bpy
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..addon import mesh_io
+from ..addon.io import mesh_io
 from ..core.geometry.normals import vertex_normals
 from . import bodies, figures, fitting, garments, studio
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
-from ..addon import mesh_io
+from ..addon.io import mesh_io
 from . import fitting
 from .figures import Figure
 

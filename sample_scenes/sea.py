@@ -6,7 +6,7 @@ where the bell goes, the camera and lights.
 
 import bpy
 
-from ..addon import blender_versions
+from ..addon.io import blender_versions
 from . import studio
 
 

@@ -8,7 +8,7 @@ seed's setting: layered ray tracing hides what cloth-cloth collision would have 
 import bpy
 import numpy as np
 
-from ..addon import mesh_io
+from ..addon.io import mesh_io
 from . import studio
 
 SEED_SIZES = (512, 2048, 8192, 32768)

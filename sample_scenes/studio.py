@@ -5,7 +5,7 @@ import math
 import bpy
 from mathutils import Vector
 
-from ..addon import blender_versions
+from ..addon.io import blender_versions
 
 
 def empty_scene(name: str):

@@ -6,7 +6,7 @@ together they interpenetrate. Used by the demo until the mannequin scenes land.
 
 import numpy as np
 
-from ..addon import mesh_io
+from ..addon.io import mesh_io
 from . import shapes, studio
 
 BODY_RADIUS = 0.15

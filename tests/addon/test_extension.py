@@ -36,7 +36,7 @@ def test_installed_from_zip_not_from_checkout(extension):
 
 
 def test_register_unregister_register_leaves_nothing_behind(clean_scene, extension):
-    cache = extension.core.scene_cache
+    cache = importlib.import_module(MODULE + ".core.rays.scene_cache")
     cache.kept_scene(b"a garment as it came", np.eye(3), np.array([[0, 1, 2]]))  # what a resolve keeps
     assert cache.kept_bytes() > 0
     assert bpy.ops.preferences.addon_disable(module=MODULE) == {"FINISHED"}
@@ -108,7 +108,7 @@ def test_clear_role(clean_scene):
 
 
 def test_mesh_io_round_trip_in_world_space(extension, clean_scene):
-    mesh_io = importlib.import_module(MODULE + ".addon.mesh_io")
+    mesh_io = importlib.import_module(MODULE + ".addon.io.mesh_io")
     rng = np.random.default_rng(0)
     v = rng.normal(size=(50, 3))
     f = rng.integers(0, 50, size=(40, 3))
@@ -132,7 +132,7 @@ def test_mesh_io_reads_what_blender_says_triangle_by_triangle(extension, clean_s
     and whole arrays are what Blender's own per-item properties give: on a mesh of triangles
     only (their corners taken face by face without reading them) and on one of quads, an ngon
     and triangles, flat-shaded in part, where Blender chooses the split."""
-    mesh_io = importlib.import_module(MODULE + ".addon.mesh_io")
+    mesh_io = importlib.import_module(MODULE + ".addon.io.mesh_io")
     if shape == "triangles":
         bpy.ops.mesh.primitive_uv_sphere_add(segments=24, ring_count=12)
         obj = bpy.context.active_object
@@ -179,16 +179,16 @@ def test_mesh_io_reads_evaluated_modifiers(extension, clean_scene):
     bpy.ops.mesh.primitive_cube_add()
     cube = bpy.context.active_object
     cube.modifiers.new("Sub", "SUBSURF").levels = 1
-    got = importlib.import_module(MODULE + ".addon.mesh_io").read_mesh(cube)
+    got = importlib.import_module(MODULE + ".addon.io.mesh_io").read_mesh(cube)
     assert len(got.triangles) == 6 * 4 * 2  # subdivided once: 24 quads, 48 triangles
     assert len(cube.data.polygons) == 6  # the original is untouched
 
 
 def test_cli_info_inside_blender(extension, capsys):
-    assert extension.addon.cli.main(["info"]) == 0
+    assert importlib.import_module(extension.__name__ + ".operators.cli.commands").main(["info"]) == 0
     out = capsys.readouterr().out
     assert "Embree (embreex)" in out and "4.5" in out
-    assert extension.addon.cli.main(["no-such-command"]) == 2
+    assert importlib.import_module(extension.__name__ + ".operators.cli.commands").main(["no-such-command"]) == 2
 
 
 def test_cli_from_plain_python_runs_the_installed_extension(extension, tmp_path):

@@ -124,7 +124,7 @@ def test_depth_object_index_and_fixed_passes(extension, studio, clean_scene, tmp
     ball = bpy.context.active_object
     ball.pass_index = 7
     # 1024 x 300 in bands of 256 rows: two (256 rows, then 44), both must land where they belong
-    engine = importlib.import_module(f"{extension.__name__}.addon.render_engine")
+    engine = importlib.import_module(f"{extension.__name__}.addon.render.engine")
     monkeypatch.setattr(engine, "BAND_PIXELS", 1024 * 256)
     bands = []
     monkeypatch.setattr(engine.FrameTracer, "rows", lambda self, a, b, rows=engine.FrameTracer.rows: (
@@ -404,8 +404,8 @@ def test_spot_light_lights_its_cone_as_blender_shapes_it(extension, studio, clea
     Each pixel centre's floor point against E cos / r^2 times the mask, E albedo / pi sent back
     (Cycles at 1024 samples, tilted and turned: the same picture to 0.5% in sum; its edge
     pixels differ by its pixel filter)."""
-    engine = importlib.import_module(f"{extension.__name__}.addon.render_engine")
-    whitted = importlib.import_module(f"{extension.__name__}.core.whitted")
+    engine = importlib.import_module(f"{extension.__name__}.addon.render.engine")
+    whitted = importlib.import_module(f"{extension.__name__}.core.render.whitted")
     scene = _engine(clean_scene)
     _white_floor(scene)
     spot = bpy.data.objects.new("Spot", bpy.data.lights.new("Spot", "SPOT"))
@@ -430,7 +430,7 @@ def test_probe_distance_zero_takes_the_body_radius_under_each_vertex(extension):
     sphere that is its radius everywhere (half the chord through the centre)."""
     import trimesh
 
-    engine = importlib.import_module(f"{extension.__name__}.addon.render_engine")
+    engine = importlib.import_module(f"{extension.__name__}.addon.render.engine")
     body = trimesh.creation.icosphere(subdivisions=4, radius=0.1)
     shirt = trimesh.creation.icosphere(subdivisions=3, radius=0.12)
     objects = [(body.vertices, body.faces), (shirt.vertices, shirt.faces), (shirt.vertices + 1.0, shirt.faces)]
@@ -447,7 +447,7 @@ def test_probe_distance_follows_the_body_parts_and_their_overrides(extension):
     10 cm and a 4 cm ball, a garment over each, and a per-part override replacing one."""
     import trimesh
 
-    engine = importlib.import_module(f"{extension.__name__}.addon.render_engine")
+    engine = importlib.import_module(f"{extension.__name__}.addon.render.engine")
     big = trimesh.creation.icosphere(subdivisions=4, radius=0.1)
     small = trimesh.creation.icosphere(subdivisions=4, radius=0.04)
     shift = np.array([0.5, 0.0, 0.0])
@@ -491,7 +491,7 @@ def test_a_skirt_probes_as_far_as_the_resolve_takes_it_and_its_override_counts(e
     from sample_scenes.shapes import tube
     from tests.core.layered_cases import lower_body, mesh
 
-    engine = importlib.import_module(f"{extension.__name__}.addon.render_engine")
+    engine = importlib.import_module(f"{extension.__name__}.addon.render.engine")
     body, parts = lower_body()
     skirt = mesh(*tube(0.18, 0.2, 0.62, n_around=64, n_along=24))
     trouser = mesh(*tube(0.085, 0.05, 0.49, n_around=32, n_along=12))
@@ -660,7 +660,7 @@ def test_triangles_at_nan_positions_are_left_out_as_if_blender_had_deleted_them(
     the render says what it left out."""
     import bmesh
 
-    engine = importlib.import_module(f"{extension.__name__}.addon.render_engine")
+    engine = importlib.import_module(f"{extension.__name__}.addon.render.engine")
     scene = _engine(clean_scene)
     _stage(scene)
     _, jacket = _garment_pair(scene)
@@ -695,7 +695,7 @@ def test_persistent_data_keeps_the_ray_scenes_while_the_meshes_stay_the_same(ext
                                                                             tmp_path, monkeypatch):
     """With Blender's Persistent Data on, a second render of the same meshes builds no ray scene and
     shows the same picture; a mesh that moved is built again; with it off nothing is kept."""
-    engine = importlib.import_module(f"{extension.__name__}.addon.render_engine")
+    engine = importlib.import_module(f"{extension.__name__}.addon.render.engine")
     made = []
     real = engine.LayeredScene
 

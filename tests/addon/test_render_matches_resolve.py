@@ -65,7 +65,7 @@ def test_f12_renders_the_resolved_layers_under_the_artists_modifiers(extension, 
     assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
     after = rendered_meshes(scene)
     # render level 2: four times the faces of the viewport's level 1 (the render was not read at viewport level)
-    assert len(after["Jacket"][1]) > 3 * len(sub(extension, "addon.mesh_io").read_mesh(jacket).triangles)
+    assert len(after["Jacket"][1]) > 3 * len(sub(extension, "addon.io.mesh_io").read_mesh(jacket).triangles)
     if crossing_share is not None:
         assert overlapping_pairs(after["Shirt"], after["Jacket"]) <= crossing_share * crossing_before
     assert overlapping_pairs(after["Body"], after["Shirt"]) == 0
@@ -86,7 +86,7 @@ def test_fig_4_13_subdivided_renders_with_no_poke_through(extension, clean_scene
     metrics = sub(extension, "core.layering.metrics")
     sub(extension, "sample_scenes.dressed").fig_4_13(seed=0)
     scene = bpy.context.scene
-    roles = sub(extension, "addon.scene_roles")
+    roles = sub(extension, "addon.layers.scene_roles")
     body, garments = roles.bodies(scene)[0], roles.garments(scene)
     for g in garments:
         add_stack(g, ["subdivision"])
@@ -132,7 +132,7 @@ def _as_its_stack_makes_it(obj):
 @pytest.mark.parametrize("how", ["moved", "deleted", "added"])
 def test_a_garment_edited_after_resolve_is_marked_stale_and_shown_as_fitted(extension, tubes, how):
     body, (shirt, jacket) = tubes
-    staleness = sub(extension, "addon.staleness")
+    staleness = sub(extension, "addon.layers.staleness")
     bpy.ops.deformrt.resolve_layers()
     assert staleness.stale_garments(bpy.context.scene) == []
     _edit(shirt, how)
@@ -157,7 +157,7 @@ def test_a_changed_topology_is_passed_through_by_the_result_group_itself(extensi
     """A file edited where DeformRT is not installed: no handler marks anything, and the group
     still refuses to apply offsets to a mesh with other counts."""
     body, (shirt, jacket) = tubes
-    staleness = sub(extension, "addon.staleness")
+    staleness = sub(extension, "addon.layers.staleness")
     bpy.ops.deformrt.resolve_layers()
     staleness.unregister()
     try:
@@ -171,7 +171,7 @@ def test_a_changed_topology_is_passed_through_by_the_result_group_itself(extensi
 
 def test_modifier_changes_above_the_result_make_it_stale_and_below_do_not(extension, tubes):
     body, (shirt, jacket) = tubes
-    staleness = sub(extension, "addon.staleness")
+    staleness = sub(extension, "addon.layers.staleness")
     bpy.ops.deformrt.resolve_layers()
     jacket.modifiers.new("Subdivision", "SUBSURF")  # after the result: it smooths the corrected garment
     bpy.context.view_layer.update()
@@ -190,7 +190,7 @@ def test_modifier_changes_above_the_result_make_it_stale_and_below_do_not(extens
 
 def test_with_resolve_on_frame_change_an_edit_is_resolved_again(extension, tubes):
     body, (shirt, jacket) = tubes
-    staleness = sub(extension, "addon.staleness")
+    staleness = sub(extension, "addon.layers.staleness")
     bpy.context.scene.deformrt.resolve_on_frame_change = True
     bpy.context.scene.frame_set(1)
     _edit(shirt, "deleted")

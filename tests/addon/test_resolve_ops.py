@@ -98,7 +98,8 @@ def test_resolving_twice_gives_the_same_result_and_clear_removes_every_trace(ext
 
 def test_reading_under_a_result_gives_the_fitted_garment_and_an_older_files_result_still_shows(extension, tubes):
     body, garments = tubes
-    layer_resolve, result_nodes = sub(extension, "addon.layer_resolve"), sub(extension, "addon.result_nodes")
+    layer_resolve = sub(extension, "addon.layers.layer_resolve")
+    result_nodes = sub(extension, "addon.layers.result_nodes")
     fitted = [evaluated(g) for g in garments]
     bpy.ops.deformrt.resolve_layers()
     shown = [evaluated(g) for g in garments]
@@ -110,7 +111,7 @@ def test_reading_under_a_result_gives_the_fitted_garment_and_an_older_files_resu
         np.testing.assert_array_equal(evaluated(g)[0], s[0])
         assert all(m.show_viewport and m.show_render for m in g.modifiers)
     # a file saved before the bypass flag: its group is rebuilt when next used, its data has no flag
-    data = [sub(extension, "addon.results").data_object(g).data for g in garments]
+    data = [sub(extension, "addon.layers.results").data_object(g).data for g in garments]
     for mesh in data:
         mesh.attributes.remove(mesh.attributes[result_nodes.BYPASS_ATTRIBUTE])
         mesh.update()
@@ -201,7 +202,7 @@ def test_scenes_that_cannot_be_resolved_are_refused_unchanged(extension, tubes):
 
 def test_a_garment_at_nan_positions_is_named_and_the_last_result_stays(extension, tubes):
     body, (shirt, jacket) = tubes
-    results = sub(extension, "addon.results")
+    results = sub(extension, "addon.layers.results")
     bpy.ops.deformrt.resolve_layers()
     kept = [results.read_offsets(g, len(g.data.vertices)) for g in (shirt, jacket)]
     assert max(np.abs(k).max() for k in kept) > 0
@@ -226,7 +227,7 @@ def _group_members(obj, name):
 
 def test_painted_part_groups_are_honoured(extension, tubes):
     body, (shirt, jacket) = tubes
-    io = sub(extension, "addon.mesh_io")
+    io = sub(extension, "addon.io.mesh_io")
     for obj, part in ((body, "torso"), (shirt, "torso"), (jacket, "left_arm")):
         io.write_vertex_groups(obj, [f"DRT_{part}"], np.ones((len(obj.data.vertices), 1)))
     bpy.ops.deformrt.resolve_layers()
@@ -242,7 +243,7 @@ def test_painted_part_groups_are_honoured(extension, tubes):
 
 def test_a_parts_probe_distance_can_be_set_in_the_panel(extension, tubes):
     body, (shirt, jacket) = tubes
-    io = sub(extension, "addon.mesh_io")
+    io = sub(extension, "addon.io.mesh_io")
     for obj in (body, shirt, jacket):
         io.write_vertex_groups(obj, ["DRT_torso"], np.ones((len(obj.data.vertices), 1)))
     settings = bpy.context.scene.deformrt
@@ -268,7 +269,7 @@ def test_a_parts_probe_distance_can_be_set_in_the_panel(extension, tubes):
 def test_a_resolve_dropped_before_it_is_written_changes_nothing(extension, tubes):
     # what Esc does to the modal resolve: the core result is computed but never written
     body, garments = tubes
-    lr = sub(extension, "addon.layer_resolve")
+    lr = sub(extension, "addon.layers.layer_resolve")
     own = [mesh_state(o) for o in (body, *garments)]
     job = lr.prepare_resolve(bpy.context.scene)
     result = lr.compute_resolve(job)
@@ -283,7 +284,7 @@ def test_a_resolve_dropped_before_it_is_written_changes_nothing(extension, tubes
 def test_auto_segment_writes_the_figures_parts_and_finds_the_dresses(extension, clean_scene):
     dressed = sub(extension, "sample_scenes.dressed")
     body, _, garments = dressed.fig_4_13()
-    io = sub(extension, "addon.mesh_io")
+    io = sub(extension, "addon.io.mesh_io")
     stored = io.read_point_ints(body, "deformrt_part_s5")  # written by the figure's builder
     assert bpy.ops.deformrt.auto_segment() == {"FINISHED"}
     parts = ("torso", "right_arm", "left_arm", "right_leg", "left_leg")
@@ -418,7 +419,7 @@ def test_garments_near_no_other_are_left_as_fitted_and_named(extension, tubes):
 def test_panel_summary_names_skirts_far_points_and_inward_garments(extension):
     from types import SimpleNamespace
 
-    panels = sub(extension, "addon.panels")
+    panels = sub(extension, "addon.ui.panels")
     report = {"message": "Resolved 2 garments", "skirts": ["Dress"], "far_from_body": 12, "inward": ["Shirt"],
               "probe_by_part": {"torso": 0.14, "left_arm": 0.04}, "still_crossing": [["Shirt", "Jacket", 7]]}
     lines = panels._last_report(SimpleNamespace(last_report=json.dumps(report)))
@@ -452,7 +453,7 @@ def test_falling_sheets_are_corrected_frame_by_frame_and_switching_off_gives_the
     scene.deformrt.resolve_on_frame_change = True
     for f in range(1, 25):
         scene.frame_set(f)
-        with sub(extension, "addon.layer_resolve").results_bypassed(made):
+        with sub(extension, "addon.layers.layer_resolve").results_bypassed(made):
             for o, v in zip(made, raw[f], strict=True):
                 np.testing.assert_allclose(evaluated(o)[0], v, atol=1e-6, err_msg=f"frame {f}")
     assert scene.deformrt.resolve_on_frame_change

@@ -21,7 +21,7 @@ def sub(ext, path):
 
 
 def layers(ext, body, garments):
-    io = sub(ext, "addon.mesh_io")
+    io = sub(ext, "addon.io.mesh_io")
     return [(a.vertices, a.triangles) for a in (io.read_mesh(o) for o in [body, *garments])]
 
 
@@ -55,7 +55,7 @@ def test_each_garment_clears_the_body_and_together_they_cross(seed_run, ext):
 
 
 def test_armature_poses_body_and_garments(seed_run, ext):
-    io = sub(ext, "addon.mesh_io")
+    io = sub(ext, "addon.io.mesh_io")
     name, body, rig, garments, arrays = seed_run
     arm = next(pb for pb in rig.pose.bones if pb.name in ("L_Elbow", "forearm.L"))
     arm.rotation_mode = "XYZ"
@@ -98,7 +98,7 @@ def test_the_skirt_is_found_as_a_skirt(ext):
 
     found = []
     for g in garments:
-        arr = sub(ext, "addon.mesh_io").read_mesh(g)
+        arr = sub(ext, "addon.io.mesh_io").read_mesh(g)
         found.append(seg.is_skirt(arr.triangles, parts[cKDTree(stick.vertices).query(arr.vertices)[1]], "S5"))
     assert found == [False, True]
 
@@ -116,7 +116,7 @@ def test_wooden_mannequin_reads_as_published(ext):
 
 def test_posed_scene_has_two_different_poses(ext):
     dressed = sub(ext, "sample_scenes.dressed")
-    io = sub(ext, "addon.mesh_io")
+    io = sub(ext, "addon.io.mesh_io")
     body, rig, garments = dressed.posed(voxel=0.02, frames=2)
     scene = bpy.context.scene
     frames = []
@@ -131,7 +131,7 @@ def test_posed_scene_has_two_different_poses(ext):
 
 def test_sheets_fall_onto_the_primitives(ext):
     sheets = sub(ext, "sample_scenes.sheets")
-    io = sub(ext, "addon.mesh_io")
+    io = sub(ext, "addon.io.mesh_io")
     made, colliders = sheets.build(layers=2, per_sheet=512, frames=30)
     assert [len(io.read_mesh(s).triangles) for s in made] == [512, 512]
     z0 = [io.read_mesh(s).vertices[:, 2].min() for s in made]

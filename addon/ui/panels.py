@@ -4,7 +4,8 @@ import json
 
 import bpy
 
-from . import jellyfish, scene_roles, staleness
+from ..jellyfish import animal as jellyfish
+from ..layers import scene_roles, staleness
 
 
 class DEFORMRT_PT_layers(bpy.types.Panel):

@@ -6,7 +6,8 @@ import json
 import bpy
 from bpy.app.handlers import persistent
 
-from . import blender_versions, layer_resolve, result_stack, results
+from ..io import blender_versions
+from . import layer_resolve, result_stack, results, staleness
 
 _busy = False
 _seen = {}  # scene name: resolve_on_frame_change as last acted on
@@ -38,8 +39,13 @@ def _notice_switch(scene):
 
 @persistent
 def on_depsgraph_update(scene, _depsgraph=None):
-    if not _busy:
-        _notice_switch(scene)
+    """After an edit: act on a switch the property could not call back for, and with Resolve on
+    Frame Change on, resolve again what staleness (whose handler runs first) found out of date."""
+    if _busy:
+        return
+    _notice_switch(scene)
+    if scene.deformrt.resolve_on_frame_change and bpy.context.mode == "OBJECT" and staleness.stale_garments(scene):
+        on_frame_change(scene)
 
 
 @persistent
@@ -92,8 +98,8 @@ def correct_frame(scene):
 def register():
     if on_frame_change not in bpy.app.handlers.frame_change_post:
         bpy.app.handlers.frame_change_post.append(on_frame_change)
-    if not blender_versions.PROPERTY_CALLBACKS and on_depsgraph_update not in bpy.app.handlers.depsgraph_update_post:
-        bpy.app.handlers.depsgraph_update_post.append(on_depsgraph_update)
+    if on_depsgraph_update not in bpy.app.handlers.depsgraph_update_post:
+        bpy.app.handlers.depsgraph_update_post.append(on_depsgraph_update)  # after staleness's: registered later
 
 
 def unregister():

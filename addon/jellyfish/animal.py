@@ -15,12 +15,12 @@ import json
 import bpy
 import numpy as np
 
-from ..core.jellyfish import bell3d
-from ..core.jellyfish.bell import BellShape, Creature, phase
-from ..core.jellyfish.swimming import default_config, default_creature, simulate_cycle
-from ..core.jellyfish.tentacle_drift import water_drift
-from . import blender_versions
-from .mesh_io import fill_mesh
+from ...core.jellyfish import bell3d
+from ...core.jellyfish.bell import BellShape, Creature, phase
+from ...core.jellyfish.swimming import default_config, default_creature, simulate_cycle
+from ...core.jellyfish.tentacle_drift import water_drift
+from ..io import blender_versions
+from ..io.mesh_io import fill_mesh
 
 PROP_MODEL, PROP_STROKE = "deformrt_jellyfish_model", "deformrt_jellyfish_stroke"
 KEYS = ("DeformRT Contracted", "DeformRT Wobble", "DeformRT Volume")

@@ -6,7 +6,7 @@ import bpy
 from bpy.props import IntProperty
 
 # The extension's root package ("bl_ext.<repo>.deformrt", or "deformrt" when run from a checkout).
-ROOT_PACKAGE = __package__.rpartition(".")[0]
+ROOT_PACKAGE = __package__.rsplit(".", 2)[0]
 
 
 def apply_thread_setting(_self=None, _context=None):

@@ -5,7 +5,7 @@ changes afterwards (edited, its shape keys or the modifiers above the result cha
 against the body, or the body itself changed), the correction would move the wrong vertices:
 the result is marked stale and switched off for that garment, so it shows and renders as
 fitted, and the panel, Inspect and the renders say why until Resolve Layers runs again (with
-Resolve on Frame Change on, that happens by itself). Animation is not a change: posed,
+Resolve on Frame Change on, frame_handler does that at once). Animation is not a change: posed,
 simulated and keyed shapes are what Resolve on Frame Change follows.
 
 The result's Geometry Nodes group also refuses a mesh with other point or face counts by itself
@@ -18,8 +18,9 @@ import bpy
 import numpy as np
 from bpy.app.handlers import persistent
 
-from ..core.geometry.keys import digest
-from . import blender_versions, result_stack, results, scene_roles
+from ...core.geometry.keys import digest
+from ..io import blender_versions
+from . import result_stack, results, scene_roles
 
 # Not what a modifier does to the mesh: its place in the UI, its name, timing
 _UI_ONLY = frozenset({"rna_type", "name", "show_expanded", "show_in_editmode", "show_on_cage", "is_active",
@@ -198,12 +199,9 @@ def on_depsgraph_update(scene, depsgraph):
     updated = {u.id.original for u in depsgraph.updates}
     if not updated & _watched(scene):
         return
-    _checking = True  # marking switches a result off, and resolving writes: updates of their own
+    _checking = True  # marking switches a result off, which is an update of its own
     try:
-        if check_scene(scene) and scene.deformrt.resolve_on_frame_change and bpy.context.mode == "OBJECT":
-            from . import frame_handler  # it resolves through this module's fingerprints
-
-            frame_handler.on_frame_change(scene)
+        check_scene(scene)  # with Resolve on Frame Change on, frame_handler resolves what was marked
     finally:
         _checking = False
 

@@ -12,9 +12,9 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from ..core.jellyfish import bell3d
-from ..core.jellyfish.swimming import default_config, default_creature, fitness, reference_scales, simulate_cycle
-from . import jellyfish
+from ...addon.jellyfish import animal as jellyfish
+from ...core.jellyfish import bell3d
+from ...core.jellyfish.swimming import default_config, default_creature, fitness, reference_scales, simulate_cycle
 
 
 def contact_sheet(paths, out, columns):
@@ -49,7 +49,7 @@ def _bell_volume(bell, n, tris):
 
 
 def run(args) -> int:
-    from ..sample_scenes import sea, studio
+    from ...sample_scenes import sea, studio
 
     out = Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)

@@ -25,13 +25,14 @@ from dataclasses import replace
 import bpy
 import numpy as np
 
-from ..core.geometry.keys import digest
-from ..core.layering.body_facts import body_facts, frozen
-from ..core.layering.segmentation import get_scheme, is_skirt, skirt_segments
-from ..core.render.layered_trace import LayeredScene
-from ..core.render.whitted import Image, Light, Material, Surfaces, camera_rays, render
-from . import blender_versions, mesh_io, staleness
-from .layer_resolve import GLOBAL_NORMAL_ATTRIBUTE, body_parts, probe_distances
+from ...core.geometry.keys import digest
+from ...core.layering.body_facts import body_facts, frozen
+from ...core.layering.segmentation import get_scheme, is_skirt, skirt_segments
+from ...core.render.layered_trace import LayeredScene
+from ...core.render.whitted import Image, Light, Material, Surfaces, camera_rays, render
+from ..io import blender_versions, mesh_io
+from ..layers import staleness
+from ..layers.layer_resolve import GLOBAL_NORMAL_ATTRIBUTE, body_parts, probe_distances
 
 FIXED_PASS = "DeformRT Fixed"  # 1 where a probe ray changed what the pixel shows
 # A frame is traced in bands of about this many pixels: each shows as soon as it is done, Esc

@@ -12,11 +12,12 @@ import bpy
 import numpy as np
 import trimesh
 
-from ..core.geometry.vectors import cross, norms, rows
-from ..core.layering import metrics
-from ..core.layering.resolve import resolve_layers
-from ..core.layering.segmentation import get_scheme, part_of_group, segments_from_groups
-from . import mesh_io, result_stack, results, scene_roles, staleness
+from ...core.geometry.vectors import cross, norms, rows
+from ...core.layering import metrics
+from ...core.layering.resolve import resolve_layers
+from ...core.layering.segmentation import get_scheme, part_of_group, segments_from_groups
+from ..io import mesh_io
+from . import result_stack, results, scene_roles, staleness
 
 PART_GROUP_PREFIX = "DRT_"
 GLOBAL_NORMAL_ATTRIBUTE = "deformrt_global_normal"

@@ -12,7 +12,7 @@ add-on installed.
 
 import bpy
 
-from . import blender_versions
+from ..io import blender_versions
 
 GROUP_NAME = "DeformRT Result"
 # Bump when the node layout changes: files saved with an older group get it rebuilt.

@@ -9,7 +9,8 @@ mesh is never written; Clear removes both and the garment renders as fitted.
 import bpy
 import numpy as np
 
-from . import blender_versions, result_nodes, result_stack, scene_roles
+from ..io import blender_versions
+from . import result_nodes, result_stack, scene_roles
 
 MODIFIER_NAME = "DeformRT"
 DATA_COLLECTION = "DeformRT Data"

@@ -12,7 +12,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from ..core import __version__, rays
+from ...core import __version__, rays
 from . import jellyfish_demo
 
 _handle = None
@@ -49,9 +49,10 @@ DEMO_SCENES = ("fig_4_12", "fig_4_13", "tubes")
 def _cmd_demo(args) -> int:
     import json
 
-    from ..core.layering import metrics
-    from ..sample_scenes import catalog, studio
-    from . import mesh_io, scene_roles
+    from ...addon.io import mesh_io
+    from ...addon.layers import scene_roles
+    from ...core.layering import metrics
+    from ...sample_scenes import catalog, studio
 
     out = Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
@@ -136,9 +137,10 @@ def _cmd_demo(args) -> int:
 
 def _cmd_scenes(args) -> int:
     """Build each bundled scene, save it (.blend, and .glb for the figures), render it."""
-    from ..core.layering import metrics
-    from ..sample_scenes import catalog, dressed, studio
-    from . import mesh_io, scene_roles
+    from ...addon.io import mesh_io
+    from ...addon.layers import scene_roles
+    from ...core.layering import metrics
+    from ...sample_scenes import catalog, dressed, studio
 
     out = Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)

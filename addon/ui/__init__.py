@@ -1,0 +1,1 @@
+"""The sidebar panels and the extension's preferences."""
