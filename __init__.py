@@ -31,7 +31,7 @@ def register():
     preferences.apply_thread_setting()
     cli.register()
     staleness.register()
-    frame_handler.register()  # its edit handler acts on what staleness's found: registered after it
+    frame_handler.register()
     render_engine.register()
 
 

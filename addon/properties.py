@@ -33,8 +33,8 @@ class DeformRTObjectProperties(bpy.types.PropertyGroup):
 
 
 SCHEME_ITEMS = (
-    ("S5", "5 Parts", "Torso, arms, legs, plus a skirt segment (the seed's static scheme)"),
-    ("S13", "13 Parts", "Upper and lower limbs, hands and feet apart (the seed's scheme for posed figures)"),
+    ("S5", "5 Parts", "Torso, arms, legs, plus a skirt segment (the thesis' static scheme)"),
+    ("S13", "13 Parts", "Upper and lower limbs, hands and feet apart (the thesis' scheme for posed figures)"),
     ("NONE", "Whole Body", "No body parts: every garment point meets every higher layer near it"),
 )
 
@@ -98,7 +98,7 @@ class DeformRTSceneProperties(bpy.types.PropertyGroup):
     part_probes: CollectionProperty(type=DeformRTPartProbe, name="Per-Part Probe Distances")
     boundary_pass: BoolProperty(
         name="Tuck Under Hems",
-        description="Smoothly pull lower layers in under higher layers' hems and cuffs (seed Fig. 4.10)",
+        description="Smoothly pull lower layers in under higher layers' hems and cuffs (thesis Fig. 4.10)",
         default=True,
     )
     body_guard: BoolProperty(
@@ -109,7 +109,7 @@ class DeformRTSceneProperties(bpy.types.PropertyGroup):
     )
     remove_hidden: BoolProperty(
         name="Hide Poke-Through",
-        description="Leave out triangles that still cross a higher layer after the move (seed Fig. 4.14)",
+        description="Leave out triangles that still cross a higher layer after the move (thesis Fig. 4.14)",
         default=True,
     )
     render_layered: BoolProperty(

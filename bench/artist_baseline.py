@@ -1,4 +1,4 @@
-"""What Blender artists do today against deformrt.resolve_layers, on the seed's dressed figures.
+"""What Blender artists do today against deformrt.resolve_layers, on the thesis' dressed figures.
 
 Each lower garment held inside every higher one by Shrinkwrap modifiers (Project along its
 normals with limit l_s, or Inside mode restricted to the vertices within l_s), the same

@@ -1,4 +1,4 @@
-"""Seed Table 4.1 and Fig. 4.16 on sample scene (d): 1-4 cloth sheets falling onto the stage
+"""Thesis Table 4.1 and Fig. 4.16 on sample scene (d): 1-4 cloth sheets falling onto the stage
 (two boxes, two spheres, the floor) with Blender's cloth solver, cloth-cloth collision off.
 
 For each size: the cloth solver's seconds per frame (the uncorrected frame), then, frame by
@@ -138,7 +138,7 @@ def main(argv=None):
         corr = np.array([r[2] for r in rows])
         cb, ca = np.array([r[3] for r in rows]), np.array([r[4] for r in rows])
         sb, sa = np.array([r[6] for r in rows]), np.array([r[7] for r in rows])
-        body += (f"\n\nA long run like the seed's: 4 sheets x 2,048 for {args.long} frames, correction "
+        body += (f"\n\nA long run like the thesis': 4 sheets x 2,048 for {args.long} frames, correction "
                  f"{1000 * corr.mean():.1f} ms per frame on average, worst {1000 * corr.max():.1f} ms "
                  f"({corr.max() / corr.mean():.1f}x); crossing edges {cb.mean():.0f} per frame before, "
                  f"{ca.mean():.2f} after (worst frame {int(ca.max())}); {int((ca > cb).sum())} frames worse after; "
@@ -146,8 +146,8 @@ def main(argv=None):
                  f"{int((sa > sb).sum())} frames with more after.")
     if not args.no_write:
         plot(series, args.frames)
-        write_section("cloth_table", "Dynamic cloth: seed Table 4.1 on falling sheets", body
-                      + "\n\nPer-frame correction time: docs/img/cloth_table.png (like the seed's Fig. 4.16).")
+        write_section("cloth_table", "Dynamic cloth: thesis Table 4.1 on falling sheets", body
+                      + "\n\nPer-frame correction time: docs/img/cloth_table.png (like the thesis' Fig. 4.16).")
     print(body)
 
 

@@ -1,4 +1,4 @@
-"""Layered garments on the seed's dressed figures: error against run time for resolve_layers
+"""Layered garments on the thesis' dressed figures: error against run time for resolve_layers
 with S5 parts, without parts, stage by stage, against the naive shrink, and on a scene that
 needs nothing (the resolved figure resolved again).
 

@@ -1,8 +1,8 @@
-"""The seed's Table 3.1 done properly: path per cycle and seconds of the default creature
+"""The thesis' Table 3.1 done properly: path per cycle and seconds of the default creature
 against substeps, particle resolution, the Courant number that sets the inner time step and
 the rounds of imposing the bell's velocity per step, each with its error against the finest
 run; and
-the vorticity through one cycle (the seed's Fig. 3.3) as a PNG.
+the vorticity through one cycle (the thesis' Fig. 3.3) as a PNG.
 
     .venv/bin/python -m bench.jellyfish     # writes its section of docs/REPORT.md (~1 min)
 """
@@ -82,8 +82,8 @@ def main():
         print(r, flush=True)
     vorticity_sheet()
     text = "\n".join([
-        f"Machine: {machine()}. core.jellyfish.simulate_cycle on the default creature (the seed's Aurelia case: "
-        "10 cm bell, 20 x 20 cm periodic domain, water, one 1 s cycle, a third of it contracting). The seed's "
+        f"Machine: {machine()}. core.jellyfish.simulate_cycle on the default creature (the thesis' Aurelia case: "
+        "10 cm bell, 20 x 20 cm periodic domain, water, one 1 s cycle, a third of it contracting). The thesis' "
         "Table 3.1 gave 7-27 s per cycle and 0.020-0.038 m of path for 6-20 substeps on one 2008 core.",
         "", "### Against substeps (100 x 100 particles)", "",
         table(["substeps", *head[1:]], by_steps), "",

@@ -1,6 +1,6 @@
 """Best fitness against evaluations and seconds for each search method on the jellyfish
-(the seed's GA with simulated annealing, differential evolution, random search on the same
-budget), the process pool's speed-up, and the seed-resolution optimum.
+(the thesis' GA with simulated annealing, differential evolution, random search on the same
+budget), the process pool's speed-up, and the thesis-resolution optimum.
 
     .venv/bin/python -m bench.jellyfish_optimize    # writes its section of docs/REPORT.md (~5 min)
 """
@@ -55,18 +55,18 @@ def main():
     text = "\n".join([
         f"Machine: {machine()}. core.jellyfish.optimize on the default configuration at 60 x 60 particles "
         f"(0.2 s per cycle), {POPULATION} creatures, at most {GENERATIONS} generations ({BUDGET} cycles); "
-        "differential evolution and random search get the same budget. Fitness is eq. 3.14 with the seed's "
+        "differential evolution and random search get the same budget. Fitness is eq. 3.14 with the thesis' "
         "lazy-mode weights (0.4, 0.3, 0.3), each term over the default creature's (which scores -0.2). "
         f"Median of {len(SEEDS)} seeds; evaluations run in a pool of 2 processes.",
         "",
         table(["method", *[f"best after {n}" for n in CHECKPOINTS], "cycles", "seconds", "path / diameter of best"],
               rows),
         "",
-        f"The pool against one process (ga-sa, seed 0, identical result): {serial.seconds:.1f} s -> "
+        f"The pool against one process (ga-sa, thesis 0, identical result): {serial.seconds:.1f} s -> "
         f"{pooled.seconds:.1f} s ({serial.seconds / pooled.seconds:.2f}x on 2 cores).",
         "",
-        f"At the seed's resolution (100 x 100, 14 substeps) ga-sa seed 0 took {full_s:.0f} s for "
-        f"{full.evaluations} cycles ({full.stopped}); the seed: about 10 minutes on one 2008 core for its "
+        f"At the thesis' resolution (100 x 100, 14 substeps) ga-sa thesis 0 took {full_s:.0f} s for "
+        f"{full.evaluations} cycles ({full.stopped}); the thesis: about 10 minutes on one 2008 core for its "
         f"whole optimisation. Best: fitness {full.fitness:+.3f}, {describe(full.creature, seed_cfg)}, path "
         f"{full.cycle.path_m / seed_cfg.bell.diameter:.4f} diameters per cycle "
         f"(default creature: {ref.fitness:+.3f}, {describe(default_creature(seed_cfg), seed_cfg)}, "

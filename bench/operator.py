@@ -1,5 +1,5 @@
 """deformrt.resolve_layers end to end in Blender (read evaluated meshes, resolve, write the
-non-destructive result) on the seed's dressed figures, and what Blender evaluates afterwards.
+non-destructive result) on the thesis' dressed figures, and what Blender evaluates afterwards.
 
     .venv/bin/python -m bench.operator     # writes the section of docs/REPORT.md (~2 min)
 """

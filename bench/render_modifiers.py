@@ -1,6 +1,6 @@
 """What F12 renders after deformrt.resolve_layers when the garments carry the modifiers artists
 use: Subdivision (viewport 1, render 2, as Ctrl+1 adds it), Solidify (Blender's default 1 cm),
-Mirror (the garment modelled as a half) and Bevel, on the seed's dressed figures. Poke-through
+Mirror (the garment modelled as a half) and Bevel, on the thesis' dressed figures. Poke-through
 and crossings are measured on the meshes the render's own depsgraph evaluates.
 
     .venv/bin/python -m bench.render_modifiers     # writes the section of docs/REPORT.md (~20 min)

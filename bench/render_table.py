@@ -1,4 +1,4 @@
-"""The DEFORMRT_LAYERED render engine against plain ray tracing and against Cycles: the seed's
+"""The DEFORMRT_LAYERED render engine against plain ray tracing and against Cycles: the thesis'
 comparison of simple and layered ray tracing (800x800, time per frame) on sample scenes (a),
 (b) and (d), and how well the image-space mode agrees with the mesh-deformation mode (object
 index per pixel of this engine's layered image of the untouched scene, against Cycles' render
@@ -76,7 +76,7 @@ def measure(name, size, picture=True):
     # each layered frame against the simple frame just before it: the machine's drift falls on both
     pairs = sorted(b / a for a, b in zip(walls[False], walls[True], strict=True))
     row["pair_ratio"] = (pairs[len(pairs) // 2], pairs[0], pairs[-1])
-    # re-renders with Persistent Data: the seed's still pose, its BVHs kept from frame to frame.
+    # re-renders with Persistent Data: the thesis' still pose, its BVHs kept from frame to frame.
     # One mode's frames in a row (a switch of mode is another scene to keep), the first builds.
     scene.render.use_persistent_data = True
     for layered in (False, True):
@@ -139,7 +139,7 @@ def _reading(m):
         f"{min(plain):.0f}-{max(plain):.0f}% "
         "for plain ray tracing, which shows every poke-through. Where they differ: hems, where the mesh mode "
         "pulled a lower layer in and the image-space mode shows it where it was, and silhouettes. Re-rendered "
-        "with Persistent Data (the BVHs kept, as the seed keeps them for a still pose), layered / simple: "
+        "with Persistent Data (the BVHs kept, as the thesis keeps them for a still pose), layered / simple: "
         + ", ".join(f"{k} {r['layered_kept_s'] / r['simple_kept_s']:.2f}x" for k, r in m.items())
         + "."
     )
@@ -193,7 +193,7 @@ def write(measured, size, quick=False):
         "camera after the mesh-deformation correction (deformrt.resolve_layers; for the sheets the frame "
         "handler's correction), share of pixels covered in either image whose object is the same. "
         f"Persistent Data: the median of {PERSISTENT_RUNS} re-renders of the same frame with Blender's Persistent "
-        "Data on, one mode's frames in a row after one that builds (the seed's still pose, whose BVHs it keeps "
+        "Data on, one mode's frames in a row after one that builds (the thesis' still pose, whose BVHs it keeps "
         "from frame to frame): the ray scenes and the covers of each layer are kept, the meshes are still read.",
         "",
         table(header, rows),

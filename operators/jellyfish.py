@@ -4,10 +4,10 @@ import bpy
 
 from ..addon.jellyfish import animal as jellyfish
 from ..core.jellyfish.swimming import default_config, optimize
-from . import background
+from .base import BackgroundOperator, DeformRTOperator
 
 METHODS = (
-    ("ga-sa", "Genetic + Annealing", "The seed's genetic algorithm with simulated-annealing selection"),
+    ("ga-sa", "Genetic + Annealing", "The thesis' genetic algorithm with simulated-annealing selection"),
     ("de", "Differential Evolution", "scipy's differential evolution on the same budget"),
     ("random", "Random Search", "Uniform random strokes (the baseline)"),
 )
@@ -23,7 +23,7 @@ class _NeedsJellyfish:
 
 
 class DEFORMRT_OT_add_jellyfish(bpy.types.Operator):
-    """Add a jellyfish: the seed's bell turned about its axis, with a velum, veins and tentacles"""
+    """Add a jellyfish: the thesis' bell turned about its axis, with a velum, veins and tentacles"""
 
     bl_idname = "deformrt.add_jellyfish"
     bl_label = "Jellyfish"
@@ -50,8 +50,8 @@ class DEFORMRT_OT_add_jellyfish(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class DEFORMRT_OT_optimize_jellyfish(_NeedsJellyfish, bpy.types.Operator):
-    """Find the stroke that swims best for its effort (seed eq. 3.14) and keep it on the jellyfish;
+class DEFORMRT_OT_optimize_jellyfish(_NeedsJellyfish, BackgroundOperator, bpy.types.Operator):
+    """Find the stroke that swims best for its effort (thesis eq. 3.14) and keep it on the jellyfish;
     in the UI it runs in the background and Esc keeps the best stroke found so far"""
 
     bl_idname = "deformrt.optimize_jellyfish"
@@ -66,67 +66,31 @@ class DEFORMRT_OT_optimize_jellyfish(_NeedsJellyfish, bpy.types.Operator):
     seed: bpy.props.IntProperty(name="Seed", default=0, min=0)
     workers: bpy.props.IntProperty(name="Processes", description="0 uses every core", default=0, min=0, max=256)
 
-    def _run(self, progress=None, stop=None):
+    status = "DeformRT: optimising (Esc keeps the best so far)"
+    keeps_partial = True
+    interval = 0.2
+
+    def prepare(self, context):
         population = self.population + self.population % 2  # pairs of parents
-        config = default_config(particles=self.particles)
-        result = optimize(config, self.method, self.seed, population=population, generations=self.generations,
-                          workers=self.workers or None, progress=progress, stop=stop)
-        return result, config
+        return {"bell": jellyfish.jellyfish_of(context.active_object).name, "population": population,
+                "config": default_config(particles=self.particles)}
 
-    def execute(self, context):
-        bell = jellyfish.jellyfish_of(context.active_object)
-        wm = context.window_manager
-        wm.progress_begin(0, 100)
-        try:
-            result, config = self._run(progress=lambda done, total, _best: wm.progress_update(int(100 * done / total)))
-        except (ValueError, RuntimeError) as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
-        finally:
-            wm.progress_end()
-        return self._done(bell, result, config)
+    def work(self, job, progress, stop):
+        result = optimize(job["config"], self.method, self.seed, population=job["population"],
+                          generations=self.generations, workers=self.workers or None,
+                          progress=lambda done, total, best: progress(done, total, best=best), stop=stop)
+        return result
 
-    def invoke(self, context, _event):
-        if context.window is None:
-            return self.execute(context)
-        self._bell_name = jellyfish.jellyfish_of(context.active_object).name
-        self._state = {"done": 0, "total": 1, "stop": False}
-        return background.start(self, context, self._work, "DeformRT: optimising (Esc keeps the best so far)",
-                                interval=0.2)
+    def status_text(self, state) -> str:
+        best = state.get("best", float("nan"))
+        return (f"DeformRT: {state['done']}/{state['total']} cycles, best fitness {best:+.3f}"
+                + (" (stopping)" if state["stop"] else " (Esc keeps the best so far)"))
 
-    def _work(self):
-        def progress(done, total, best):
-            self._state.update(done=done, total=total, best=best)
-
-        try:
-            self._state["result"] = self._run(progress, lambda: self._state["stop"])
-        except (ValueError, RuntimeError) as exc:
-            self._state["error"] = exc
-
-    def modal(self, context, event):
-        st = self._state
-        if event.type == "ESC":
-            st["stop"] = True  # the search ends after its running cycles and keeps its best
-        if event.type != "TIMER":
-            return {"RUNNING_MODAL"} if event.type == "ESC" else {"PASS_THROUGH"}
-        wm = context.window_manager
-        if self._thread.is_alive():
-            wm.progress_update(int(100 * st["done"] / max(st["total"], 1)))
-            context.workspace.status_text_set(
-                f"DeformRT: {st['done']}/{st['total']} cycles, best fitness {st.get('best', float('nan')):+.3f}"
-                + (" (stopping)" if st["stop"] else " (Esc keeps the best so far)"))
-            return {"RUNNING_MODAL"}
-        background.finish(self, context)
-        if "error" in st:
-            self.report({"ERROR"}, str(st["error"]))
-            return {"CANCELLED"}
-        bell = bpy.data.objects.get(self._bell_name)
+    def finish(self, context, job, result):
+        bell = bpy.data.objects.get(job["bell"])
         if bell is None:
-            self.report({"ERROR"}, "The jellyfish was deleted while optimising")
-            return {"CANCELLED"}
-        return self._done(bell, *st["result"])
-
-    def _done(self, bell, result, config):
+            return self.fail(RuntimeError("The jellyfish was deleted while optimising"))
+        config = job["config"]
         jellyfish.store_stroke(bell, result, config)
         how = "stopped early, kept the best" if result.stopped == "cancelled" else result.stopped
         self.report({"INFO"}, f"Best stroke: fitness {result.fitness:+.3f}, "
@@ -135,7 +99,7 @@ class DEFORMRT_OT_optimize_jellyfish(_NeedsJellyfish, bpy.types.Operator):
         return {"FINISHED"}
 
 
-class DEFORMRT_OT_bake_jellyfish(_NeedsJellyfish, bpy.types.Operator):
+class DEFORMRT_OT_bake_jellyfish(_NeedsJellyfish, DeformRTOperator, bpy.types.Operator):
     """Animate the jellyfish with its stroke: shape keys and keyframes that play and render
     without DeformRT (baking again replaces them)"""
 
@@ -159,8 +123,7 @@ class DEFORMRT_OT_bake_jellyfish(_NeedsJellyfish, bpy.types.Operator):
             message = jellyfish.bake(context.scene, bell, self.frame_start, self.frame_end, self.cycle_frames,
                                      self.wobble, self.seed, self.water)
         except (ValueError, RuntimeError) as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
+            return self.fail(exc)
         self.report({"INFO"}, message)
         return {"FINISHED"}
 

@@ -1,18 +1,10 @@
 """Resolve, clear and bake the layered garments of the scene."""
 
-import json
-import time
-
 import bpy
 
 from ..addon.io import blender_versions
-from ..addon.layers import frame_handler, layer_resolve, results, scene_roles
-from . import background
-
-
-def _fail(op, exc):
-    op.report({"ERROR"}, str(exc))
-    return {"CANCELLED"}
+from ..addon.layers import frame_handler, layer_resolve, report, results, scene_roles
+from .base import BackgroundOperator, DeformRTOperator
 
 
 class _NeedsGarments:
@@ -24,13 +16,15 @@ class _NeedsGarments:
         return True
 
 
-class DEFORMRT_OT_resolve_layers(bpy.types.Operator):
+class DEFORMRT_OT_resolve_layers(BackgroundOperator, bpy.types.Operator):
     """Move lower garments behind higher ones and hide what still pokes through (non-destructive:
     a DeformRT modifier on each garment; its mesh is not changed)"""
 
     bl_idname = "deformrt.resolve_layers"
     bl_label = "Resolve Layers"
     bl_options = {"REGISTER", "UNDO"}
+    status = "DeformRT: resolving layers (Esc to cancel)"
+    cancelled_message = "Resolve cancelled: the garments are unchanged"
 
     @classmethod
     def poll(cls, context):
@@ -39,69 +33,23 @@ class DEFORMRT_OT_resolve_layers(bpy.types.Operator):
             return False
         return True
 
-    def execute(self, context):
-        wm = context.window_manager
-        wm.progress_begin(0, 3)
-        try:
-            summary = layer_resolve.resolve_scene(context.scene, progress=wm.progress_update)
-        except (ValueError, RuntimeError) as exc:
-            return _fail(self, exc)
-        finally:
-            wm.progress_end()
-        return self._done(context, summary)
+    def prepare(self, context):
+        return layer_resolve.prepare_resolve(context.scene)
 
-    def invoke(self, context, _event):
-        # In the UI the core resolve runs on a worker thread so Blender stays responsive and
-        # Esc can cancel; headless callers get execute() and a blocking call.
-        if context.window is None:
-            return self.execute(context)
-        try:
-            self._job = layer_resolve.prepare_resolve(context.scene)
-        except (ValueError, RuntimeError) as exc:
-            return _fail(self, exc)
-        self._outcome = {}
-        return background.start(self, context, self._work, "DeformRT: resolving layers (Esc to cancel)")
+    def work(self, job, progress, stop):
+        return layer_resolve.compute_resolve(job)
 
-    def _work(self):
+    def finish(self, context, job, result):
         try:
-            self._outcome["result"] = layer_resolve.compute_resolve(self._job)
-        except (ValueError, RuntimeError) as exc:
-            self._outcome["error"] = exc
-
-    def modal(self, context, event):
-        if event.type == "ESC":
-            background.finish(self, context)
-            # the worker's result is dropped when it ends: nothing was written yet
-            self.report({"WARNING"}, "Resolve cancelled: the garments are unchanged")
-            return {"CANCELLED"}
-        if event.type != "TIMER":
-            return {"PASS_THROUGH"}
-        if self._thread.is_alive():
-            context.window_manager.progress_update(int(time.perf_counter() - self._job.t0) % 100)
-            return {"RUNNING_MODAL"}
-        background.finish(self, context)
-        if "error" in self._outcome:
-            return _fail(self, self._outcome["error"])
-        try:
-            summary = layer_resolve.finish_resolve(context.scene, self._job, self._outcome["result"])
+            summary = layer_resolve.finish_resolve(context.scene, job, result)
         except ReferenceError:
-            self.report({"ERROR"}, "A garment was deleted while resolving: nothing written")
-            return {"CANCELLED"}
-        return self._done(context, summary)
-
-    def _done(self, context, summary):
-        context.scene.deformrt.last_report = json.dumps({
-            "kind": "resolve", "message": summary.message(), "seconds": summary.seconds,
-            "garments": summary.garments, "max_move": summary.max_move, "faces_hidden": summary.faces_hidden,
-            "parts": summary.parts_source, "skirts": [summary.garments[i] for i in summary.stats["skirts"]],
-            "far_from_body": summary.stats["vertices_far_from_body"], "inward": summary.inward,
-            "probe_by_part": summary.probe_by_part,
-            "stages_s": {k: v for k, v in summary.stats.items() if k.endswith("_s")}})
+            return self.fail(RuntimeError("A garment was deleted while resolving: nothing written"))
+        report.write(context.scene, summary.report())
         self.report({"INFO"}, summary.message())
         return {"FINISHED"}
 
 
-class DEFORMRT_OT_add_part_probe(bpy.types.Operator):
+class DEFORMRT_OT_add_part_probe(DeformRTOperator, bpy.types.Operator):
     """Set how far one body part's probe rays look (starts from what the last resolve used)"""
 
     bl_idname = "deformrt.add_part_probe"
@@ -110,10 +58,8 @@ class DEFORMRT_OT_add_part_probe(bpy.types.Operator):
 
     def execute(self, context):
         settings = context.scene.deformrt
-        try:
-            used = json.loads(settings.last_report).get("probe_by_part", {}) if settings.last_report else {}
-        except ValueError:
-            used = {}
+        last = report.read(context.scene)
+        used = last.probe_by_part if last is not None else {}
         taken = {p.part for p in settings.part_probes}
         free = [p for p in (used or {"torso": None}) if p not in taken] or ["torso"]
         item = settings.part_probes.add()
@@ -123,7 +69,7 @@ class DEFORMRT_OT_add_part_probe(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class DEFORMRT_OT_remove_part_probe(bpy.types.Operator):
+class DEFORMRT_OT_remove_part_probe(DeformRTOperator, bpy.types.Operator):
     """Let this part's probe distance follow the body again"""
 
     bl_idname = "deformrt.remove_part_probe"
@@ -140,7 +86,7 @@ class DEFORMRT_OT_remove_part_probe(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class DEFORMRT_OT_auto_segment(bpy.types.Operator):
+class DEFORMRT_OT_auto_segment(DeformRTOperator, bpy.types.Operator):
     """Split the body into parts (from its rig's vertex groups) and give every garment the
     part of the body under it, as DRT_<part> vertex groups you can repaint; the resolve
     follows them"""
@@ -160,12 +106,12 @@ class DEFORMRT_OT_auto_segment(bpy.types.Operator):
         try:
             message = layer_resolve.auto_segment(context.scene)
         except (ValueError, RuntimeError) as exc:
-            return _fail(self, exc)
+            return self.fail(exc)
         self.report({"INFO"}, message)
         return {"FINISHED"}
 
 
-class DEFORMRT_OT_transfer_normals(_NeedsGarments, bpy.types.Operator):
+class DEFORMRT_OT_transfer_normals(_NeedsGarments, DeformRTOperator, bpy.types.Operator):
     """Store each garment's global normals (from the body under it) as a vector attribute you
     can see and edit; the resolve follows the stored ones until they are removed"""
 
@@ -184,12 +130,12 @@ class DEFORMRT_OT_transfer_normals(_NeedsGarments, bpy.types.Operator):
         try:
             message = layer_resolve.transfer_normals(context.scene)
         except (ValueError, RuntimeError) as exc:
-            return _fail(self, exc)
+            return self.fail(exc)
         self.report({"INFO"}, message)
         return {"FINISHED"}
 
 
-class DEFORMRT_OT_clear_results(bpy.types.Operator):
+class DEFORMRT_OT_clear_results(DeformRTOperator, bpy.types.Operator):
     """Remove the layering result from every garment (they render as fitted again)"""
 
     bl_idname = "deformrt.clear_results"
@@ -198,12 +144,12 @@ class DEFORMRT_OT_clear_results(bpy.types.Operator):
 
     def execute(self, context):
         count = layer_resolve.clear_scene(context.scene)
-        context.scene.deformrt.last_report = ""
+        report.write(context.scene, None)
         self.report({"INFO"}, f"Cleared the result of {count} garment(s)" if count else "No results to clear")
         return {"FINISHED"}
 
 
-class DEFORMRT_OT_bake_results(_NeedsGarments, bpy.types.Operator):
+class DEFORMRT_OT_bake_results(_NeedsGarments, DeformRTOperator, bpy.types.Operator):
     """Write what the body and garments render now as plain meshes into the "DeformRT Baked"
     collection, for export (glTF, FBX, OBJ, Alembic)"""
 
@@ -216,7 +162,7 @@ class DEFORMRT_OT_bake_results(_NeedsGarments, bpy.types.Operator):
         try:
             body, garments = layer_resolve.layered_objects(scene)
         except ValueError as exc:
-            return _fail(self, exc)
+            return self.fail(exc)
         made = results.bake(scene, [body, *garments], context.evaluated_depsgraph_get())
         unresolved = [g.name for g in garments if results.result_modifier(g) is None]
         note = f" ({', '.join(unresolved)} not resolved: baked as fitted)" if unresolved else ""
@@ -225,7 +171,7 @@ class DEFORMRT_OT_bake_results(_NeedsGarments, bpy.types.Operator):
         return {"FINISHED"}
 
 
-class DEFORMRT_OT_inspect_layers(_NeedsGarments, bpy.types.Operator):
+class DEFORMRT_OT_inspect_layers(_NeedsGarments, DeformRTOperator, bpy.types.Operator):
     """Measure the layers as fitted and as shown now: crossing edges, poke-through over 16
     views, how far the resolve moved the garments and how much it stretched them"""
 
@@ -235,15 +181,15 @@ class DEFORMRT_OT_inspect_layers(_NeedsGarments, bpy.types.Operator):
 
     def execute(self, context):
         try:
-            report = layer_resolve.inspect_scene(context.scene)
+            found = layer_resolve.inspect_scene(context.scene)
         except (ValueError, RuntimeError) as exc:
-            return _fail(self, exc)
-        context.scene.deformrt.last_report = json.dumps(report)
-        self.report({"INFO"}, report["message"])
+            return self.fail(exc)
+        report.write(context.scene, found)
+        self.report({"INFO"}, found.message)
         return {"FINISHED"}
 
 
-class DEFORMRT_OT_bake_frames(_NeedsGarments, bpy.types.Operator):
+class DEFORMRT_OT_bake_frames(_NeedsGarments, DeformRTOperator, bpy.types.Operator):
     """Resolve every frame of a range and write the garments (and body) as an Alembic mesh
     cache, so a render farm or another tool needs no DeformRT"""
 
@@ -268,7 +214,7 @@ class DEFORMRT_OT_bake_frames(_NeedsGarments, bpy.types.Operator):
         try:
             body, garments = layer_resolve.layered_objects(scene)
         except ValueError as exc:
-            return _fail(self, exc)
+            return self.fail(exc)
         if self.filepath.startswith("//") and not bpy.data.filepath:
             self.report({"ERROR"}, "Save the file first or give an absolute path for the cache")
             return {"CANCELLED"}
@@ -312,7 +258,8 @@ class DEFORMRT_OT_bake_frames(_NeedsGarments, bpy.types.Operator):
                 frame_handler.switch(scene, True)
                 layer_resolve.keep_correspondence(kept)
         if result != {"FINISHED"} or stopped:
-            self.report({"ERROR"}, "Bake stopped: " + (json.loads(settings.last_report or "{}").get("message", "")
+            last = report.read(scene)
+            self.report({"ERROR"}, "Bake stopped: " + ((last.message if last is not None else "")
                                                         if stopped else "the Alembic export failed"))
             return {"CANCELLED"}
         n = self.frame_end - self.frame_start + 1

@@ -5,15 +5,15 @@ from . import dressed, sea, sheets, tubes
 SCENES = {
     "tubes": (lambda seed: tubes.build(seed=seed), "Capped-cylinder body, two noisy sleeves: the smallest case."),
     "fig_4_12": (lambda seed: dressed.fig_4_12(seed=seed),
-                 "Seed run (a), Fig. 4.12: wooden mannequin + jumpsuit + pants + two shirts, ~250k triangles."),
+                 "Thesis run (a), Fig. 4.12: wooden mannequin + jumpsuit + pants + two shirts, ~250k triangles."),
     "fig_4_13": (lambda seed: dressed.fig_4_13(seed=seed),
-                 "Seed run (b), Fig. 4.13: Skin-modifier figure + pants + shirt + two dresses, ~121k triangles."),
+                 "Thesis run (b), Fig. 4.13: Skin-modifier figure + pants + shirt + two dresses, ~121k triangles."),
     "posed": (lambda seed: dressed.posed(seed=seed),
-              "Seed run (c): wooden mannequin in T-shirt, pants and jacket; frame 1 rest, frame 2 posed."),
+              "Thesis run (c): wooden mannequin in T-shirt, pants and jacket; frame 1 rest, frame 2 posed."),
     "sheets": (lambda seed: sheets.build(layers=4, per_sheet=2048, seed=seed),
-               "Seed run (d), Table 4.1: four cloth sheets (2,048 triangles each) over two boxes and two spheres; "
+               "Thesis run (d), Table 4.1: four cloth sheets (2,048 triangles each) over two boxes and two spheres; "
                "cloth-cloth collision off. Other sizes: sheets.build(layers, per_sheet)."),
-    "sea": (lambda seed: sea.build(), "Seed run (e): sea water, sand floor and light for the jellyfish."),
+    "sea": (lambda seed: sea.build(), "Thesis run (e): sea water, sand floor and light for the jellyfish."),
 }
 # scenes whose cloth must run before the picture shows anything
 SETTLE_FRAMES = {"sheets": 60}

@@ -1,4 +1,4 @@
-"""Dressed figures: the seed's layered-garment runs (Fig. 4.12, 4.13) and a posed figure.
+"""Dressed figures: the thesis' layered-garment runs (Fig. 4.12, 4.13) and a posed figure.
 
 Every garment is fitted to the body on its own (cut from the body's envelope with its own
 ease and a few millimetres of seeded fold noise, then draped): alone it clears the body,

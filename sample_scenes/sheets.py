@@ -1,8 +1,8 @@
-"""Falling sheets (seed Table 4.1, Fig. 4.15): 1-4 cloth sheets over two boxes and two spheres.
+"""Falling sheets (thesis Table 4.1, Fig. 4.15): 1-4 cloth sheets over two boxes and two spheres.
 
-Each sheet is a square grid of ``per_sheet`` triangles (512, 2048, 8192 or 32768 in the seed)
+Each sheet is a square grid of ``per_sheet`` triangles (512, 2048, 8192 or 32768 in the thesis)
 with Blender cloth; the primitives collide, the sheets do not collide with each other (the
-seed's setting: layered ray tracing hides what cloth-cloth collision would have prevented).
+thesis' setting: layered ray tracing hides what cloth-cloth collision would have prevented).
 """
 
 import bpy
@@ -11,7 +11,7 @@ import numpy as np
 from ..addon.io import mesh_io
 from . import studio
 
-SEED_SIZES = (512, 2048, 8192, 32768)
+THESIS_SIZES = (512, 2048, 8192, 32768)
 COLOURS = ((0.80, 0.20, 0.15, 1.0), (0.15, 0.45, 0.80, 1.0), (0.90, 0.75, 0.20, 1.0), (0.25, 0.65, 0.30, 1.0))
 
 
@@ -31,7 +31,7 @@ def build(layers: int = 2, per_sheet: int = 2048, frames: int = 120, seed: int =
     bottom to top (the lowest sheet is the innermost layer); the stage (primitives and
     floor in one object) is the body."""
     if not 1 <= layers <= 4:
-        raise ValueError(f"layers must be 1-4 (the seed's range), got {layers}")
+        raise ValueError(f"layers must be 1-4 (the thesis' range), got {layers}")
     n_side = int(round(np.sqrt(per_sheet / 2)))
     if 2 * n_side * n_side != per_sheet:
         raise ValueError(f"per_sheet must be 2 n^2 triangles (512, 2048, 8192, 32768...), got {per_sheet}")

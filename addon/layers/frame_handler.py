@@ -1,13 +1,12 @@
 """Resolve on frame change: keeps the layering right through playback, animation renders and
 frame bakes when ``scene.deformrt.resolve_on_frame_change`` is on."""
 
-import json
 
 import bpy
 from bpy.app.handlers import persistent
 
 from ..io import blender_versions
-from . import layer_resolve, result_stack, results, staleness
+from . import layer_resolve, report, result_stack, results, staleness
 
 _busy = False
 _seen = {}  # scene name: resolve_on_frame_change as last acted on
@@ -38,13 +37,14 @@ def _notice_switch(scene):
 
 
 @persistent
-def on_depsgraph_update(scene, _depsgraph=None):
+def on_depsgraph_update(scene, depsgraph):
     """After an edit: act on a switch the property could not call back for, and with Resolve on
-    Frame Change on, resolve again what staleness (whose handler runs first) found out of date."""
+    Frame Change on, resolve again what the edit put out of date."""
     if _busy:
         return
     _notice_switch(scene)
-    if scene.deformrt.resolve_on_frame_change and bpy.context.mode == "OBJECT" and staleness.stale_garments(scene):
+    if (scene.deformrt.resolve_on_frame_change and bpy.context.mode == "OBJECT"
+            and staleness.touched(scene, depsgraph) and staleness.check_scene(scene)):
         on_frame_change(scene)
 
 
@@ -62,7 +62,7 @@ def on_frame_change(scene, _depsgraph=None):
         message = f"Resolve on frame change stopped at frame {scene.frame_current}: {exc}"
         print(f"DeformRT: {message}")
         switch(scene, False)
-        scene.deformrt.last_report = json.dumps({"message": message})
+        report.write(scene, report.LayersReport(kind="stopped", message=message))
     finally:
         _busy = False
 
@@ -99,7 +99,7 @@ def register():
     if on_frame_change not in bpy.app.handlers.frame_change_post:
         bpy.app.handlers.frame_change_post.append(on_frame_change)
     if on_depsgraph_update not in bpy.app.handlers.depsgraph_update_post:
-        bpy.app.handlers.depsgraph_update_post.append(on_depsgraph_update)  # after staleness's: registered later
+        bpy.app.handlers.depsgraph_update_post.append(on_depsgraph_update)
 
 
 def unregister():

@@ -12,19 +12,21 @@ import bpy
 import numpy as np
 import trimesh
 
+from ...core.geometry.cache import Cache
 from ...core.geometry.vectors import cross, norms, rows
 from ...core.layering import metrics
 from ...core.layering.resolve import resolve_layers
 from ...core.layering.segmentation import get_scheme, part_of_group, segments_from_groups
 from ..io import mesh_io
 from . import result_stack, results, scene_roles, staleness
+from .report import LayersReport
 
 PART_GROUP_PREFIX = "DRT_"
 GLOBAL_NORMAL_ATTRIBUTE = "deformrt_global_normal"
 GLOBAL_NORMAL_COLOR = "deformrt_global_normal_color"
 # Garment-to-body correspondence from the first resolve of an animation (rest or first
-# frame), reused on later frames instead of searching again (the seed's posed pipeline).
-_correspondence_cache = {}
+# frame), reused on later frames instead of searching again (the thesis' posed pipeline).
+_correspondence_cache = Cache(max_entries=1)
 
 
 class LayeringInputError(ValueError):
@@ -50,6 +52,14 @@ class ResolveSummary:
         return (f"Resolved {len(self.garments)} garments on {self.body} in {self.seconds['total_s']:.2f} s: "
                 f"max move {moved * 1000:.1f} mm, {sum(self.faces_hidden)} faces hidden "
                 f"(parts: {self.parts_source}){alone}")
+
+    def report(self) -> LayersReport:
+        return LayersReport(
+            kind="resolve", message=self.message(), seconds=self.seconds, garments=self.garments,
+            max_move=self.max_move, faces_hidden=self.faces_hidden, parts=self.parts_source,
+            skirts=[self.garments[i] for i in self.stats["skirts"]], far_from_body=self.stats["vertices_far_from_body"],
+            inward=self.inward, probe_by_part=self.probe_by_part,
+            stages_s={k: v for k, v in self.stats.items() if k.endswith("_s")})
 
 
 def layered_objects(scene):
@@ -216,11 +226,12 @@ def forget_correspondence():
 
 
 def kept_correspondence() -> dict:
-    return dict(_correspondence_cache)
+    return dict(_correspondence_cache.items())
 
 
 def keep_correspondence(cache: dict) -> None:
-    _correspondence_cache.update(cache)
+    for key, value in cache.items():
+        _correspondence_cache.put(key, value)
 
 
 @dataclass
@@ -271,7 +282,7 @@ def prepare_resolve(scene, reuse_correspondence=False) -> ResolveJob:
         params["global_normals"] = g_normals
     key = _topology_key([body, *garments], arrays)
     if reuse_correspondence and key in _correspondence_cache:
-        params["correspondence"] = _correspondence_cache[key]
+        params["correspondence"] = _correspondence_cache.get(key)
     made_for = [staleness.fingerprint(g, body) for g in garments]
     return ResolveJob(body, garments, arrays, params, source, key, reuse_correspondence,
                       time.perf_counter() - t0, t0, settings.scheme, parts is not None, made_for)
@@ -288,10 +299,9 @@ def finish_resolve(scene, job: ResolveJob, result) -> ResolveSummary:
     if job.reuse_correspondence:
         kept = _correspondence_cache.get(job.key)
         if kept is None:
-            _correspondence_cache.clear()
-            _correspondence_cache[job.key] = corr
+            _correspondence_cache.put(job.key, corr)  # one animation's: the last one's goes
         else:  # garments that first met another garment on this frame
-            _correspondence_cache[job.key] = [c if c is not None else new for c, new in zip(kept, corr, strict=True)]
+            _correspondence_cache.put(job.key, [c if c is not None else new for c, new in zip(kept, corr, strict=True)])
     garments, arrays = job.garments, job.arrays
     t1 = time.perf_counter()
     faces_hidden = []
@@ -380,7 +390,7 @@ def auto_segment(scene) -> str:
             + (f"; skirts: {', '.join(skirts)}" if skirts else ""))
 
 
-def inspect_scene(scene) -> dict:
+def inspect_scene(scene) -> LayersReport:
     """Crossings, poke-through and distortion of the tagged layers as fitted and as shown now."""
     body, garments = layered_objects(scene)
     objs = [body, *garments]
@@ -397,31 +407,28 @@ def inspect_scene(scene) -> dict:
     cameras = metrics.camera_ring(*metrics.layer_bounds(before), views=8, resolution=96)
     crossing_after = metrics.layer_crossings(after)
     names = [o.name for o in objs]
-    report = {
-        "kind": "inspect",
-        "crossings_before": int(np.triu(metrics.layer_crossings(before)).sum()),
-        "crossings_after": int(np.triu(crossing_after).sum()),
-        "still_crossing": [[names[i], names[j], int(crossing_after[i, j])]
-                           for i, j in zip(*np.nonzero(np.triu(crossing_after)), strict=True)],
-        "poke_through_before": metrics.poke_through(before, cameras=cameras)[0],
-        "poke_through_after": metrics.poke_through(after, cameras=cameras)[0],
-        "max_move": 0.0,
-        "max_stretch": 1.0,
-        "stale": [[g.name, reason] for g, reason in stale],
-    }
+    report = LayersReport(
+        kind="inspect", message="",
+        crossings_before=int(np.triu(metrics.layer_crossings(before)).sum()),
+        crossings_after=int(np.triu(crossing_after).sum()),
+        still_crossing=[[names[i], names[j], int(crossing_after[i, j])]
+                        for i, j in zip(*np.nonzero(np.triu(crossing_after)), strict=True)],
+        poke_through_before=metrics.poke_through(before, cameras=cameras)[0],
+        poke_through_after=metrics.poke_through(after, cameras=cameras)[0],
+        stale=[[g.name, reason] for g, reason in stale])
     for obj, a in zip(garments, cages, strict=True):
         off = results.read_offsets(obj, len(a.vertices))
         if off is None or any(g == obj for g, _ in stale):
             continue
         d = metrics.distortion(a.vertices, a.vertices + off @ a.matrix_world[:3, :3].T, a.triangles)
-        report["max_move"] = max(report["max_move"], d["max_move"])
-        report["max_stretch"] = max(report["max_stretch"], d["max_stretch"])
-    report["message"] = (f"Crossing edges {report['crossings_before']:,} -> {report['crossings_after']:,}, "
-                         f"poke-through {100 * report['poke_through_before']:.2f}% -> "
-                         f"{100 * report['poke_through_after']:.2f}%, max move {1000 * report['max_move']:.1f} mm, "
-                         f"max edge stretch {report['max_stretch']:.2f}x")
+        report.max_move_m = max(report.max_move_m, d["max_move"])
+        report.max_stretch = max(report.max_stretch, d["max_stretch"])
+    report.message = (f"Crossing edges {report.crossings_before:,} -> {report.crossings_after:,}, "
+                      f"poke-through {100 * report.poke_through_before:.2f}% -> "
+                      f"{100 * report.poke_through_after:.2f}%, max move {1000 * report.max_move_m:.1f} mm, "
+                      f"max edge stretch {report.max_stretch:.2f}x")
     if stale:
-        report["message"] += f"; out of date, shown as fitted: {', '.join(g.name for g, _ in stale)}"
+        report.message += f"; out of date, shown as fitted: {', '.join(g.name for g, _ in stale)}"
     return report
 
 

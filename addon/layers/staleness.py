@@ -191,13 +191,17 @@ def _watched(scene) -> set:
     return ids
 
 
+def touched(scene, depsgraph) -> bool:
+    """Whether this update changed a body or a garment that has a result (not while marking)."""
+    if _checking or not any(results.data_object(o) is not None for o in scene_roles.garments(scene)):
+        return False
+    return bool({u.id.original for u in depsgraph.updates} & _watched(scene))
+
+
 @persistent
 def on_depsgraph_update(scene, depsgraph):
     global _checking
-    if _checking or not any(results.data_object(o) is not None for o in scene_roles.garments(scene)):
-        return
-    updated = {u.id.original for u in depsgraph.updates}
-    if not updated & _watched(scene):
+    if not touched(scene, depsgraph):
         return
     _checking = True  # marking switches a result off, which is an update of its own
     try:

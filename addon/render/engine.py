@@ -1,5 +1,5 @@
 """DeformRT Layered: a render engine that shows garments in layer order without moving them
-(seed 4.4, the image-space mode), shaded Whitted-style by core.whitted.
+(thesis 4.4, the image-space mode), shaded Whitted-style by core.whitted.
 
 Objects tagged as body or garments are layered (global normals from the stored
 ``deformrt_global_normal`` attribute, else each mesh's own normals); everything else is drawn as
@@ -7,7 +7,7 @@ it is. Materials come from the Principled BSDF, slot by slot: base colour (or an
 feeding it straight, read at the UV map that renders), metallic as mirror, transmission and IOR,
 roughness as Blinn-Phong shininess, emission (it shows, it lights nothing else). Sun, point,
 spot and area lights (area lights sampled on a grid for soft shadows; a light's Shadow switch is
-followed). Light strengths are divided by pi on the way in, so the seed's Lambert term (albedo
+followed). Light strengths are divided by pi on the way in, so the thesis' Lambert term (albedo
 times N.L, no 1/pi) gives the radiance Cycles gives: a white surface facing a sun of strength 1
 is 1/pi.
 
@@ -25,9 +25,9 @@ from dataclasses import replace
 import bpy
 import numpy as np
 
+from ...core.geometry.cache import Cache
 from ...core.geometry.keys import digest
-from ...core.layering.body_facts import body_facts, frozen
-from ...core.layering.segmentation import get_scheme, is_skirt, skirt_segments
+from ...core.layering.probes import body_probes
 from ...core.render.layered_trace import LayeredScene
 from ...core.render.whitted import Image, Light, Material, Surfaces, camera_rays, render
 from ..io import blender_versions, mesh_io
@@ -202,7 +202,7 @@ def finite_part(a):
 # With the scene's Persistent Data on (Render Properties > Performance, as Cycles has it), the
 # last frame's ray scenes (the BVHs, what is worn over each layer) are kept for the next render
 # of the same meshes: look-development renders of a still pose build nothing again.
-_persistent = {"key": None, "scene": None}
+PERSISTENT = Cache(max_entries=1)
 
 
 def _scene_key(objects, layers, normals, probe, offset):
@@ -219,14 +219,15 @@ def layered_scene(objects, layers, normals, probe, offset, keep=False):
     was made from the same arrays, else a new one kept in its place; without, a new one, and
     nothing is held."""
     if not keep:
-        _persistent.update(key=None, scene=None)
+        PERSISTENT.clear()
         return LayeredScene(objects, layers, normals, probe_distance=probe, offset=offset), False
     key = _scene_key(objects, layers, normals, probe, offset)
-    if _persistent["key"] == key:
-        return _persistent["scene"], True
-    _persistent.update(key=None, scene=None)  # the old scene's memory goes before the new one's comes
+    found = PERSISTENT.get(key)
+    if found is not None:
+        return found, True
+    PERSISTENT.clear()  # the old scene's memory goes before the new one's comes
     made = LayeredScene(objects, layers, normals, probe_distance=probe, offset=offset)
-    _persistent.update(key=key, scene=made)
+    PERSISTENT.put(key, made)
     return made, False
 
 
@@ -276,69 +277,6 @@ def scene_arrays(depsgraph, layered=True):
     made, kept = layered_scene(objects, layers, normals, probe, settings.offset,
                                keep=depsgraph.scene.render.use_persistent_data)
     return made, materials, slots, uvs, shading, pass_index, kept, warnings, unseen
-
-
-def body_probes(objects, layers, given=None, parts=None, scheme=None, traced=None):
-    """l_s per vertex as the resolve takes it: ``given`` (one distance, or one per part with
-    NaN where the part keeps its default) or else the body's radius (half its thickness
-    straight through), each part's median when the body has ``parts`` (one id per body vertex)
-    and the radius under each vertex when it has none; every vertex of the body and the
-    garments takes the value of the part of its nearest body vertex. With the ``scheme`` the
-    parts follow, a garment whose hem goes round both legs (a skirt) takes the skirt
-    segment's l_s on the legs, as in the resolve (BodyFacts.probe_lengths: its linked parts'
-    farthest reach, or its override). Objects outside the layering, or all of them when there
-    is no body, keep the default (None), as do those whose ``traced`` (one bool per object) is
-    False: the outermost layer, which nothing is worn over, sends no probe."""
-    if given is not None and np.ndim(given) == 0:
-        return float(given)
-    if given is not None and parts is None:
-        raise ValueError("probe distances per part need the body's parts")
-    body = next((i for i, lay in enumerate(layers) if lay == 0), None)
-    if body is None:
-        return None
-    facts = body_facts(*objects[body])  # kept: the next frame of a still body asks again
-    traced = [True] * len(objects) if traced is None else traced
-    parts = None if parts is None else np.asarray(parts, np.int64)
-    scheme = None if scheme is None else get_scheme(scheme)
-    # a body vertex is its own nearest (a triangle's vertex sits in the tree at distance 0)
-    nearest = [None if lay is None or not go else (np.arange(len(v)), False) if i == body
-               else _nearest_part(facts, v, f, parts, scheme)
-               for i, ((v, f), lay, go) in enumerate(zip(objects, layers, traced, strict=True))]
-    if parts is None:
-        return [None if found is None else facts.radius[found[0]] for found in nearest]
-    if scheme is not None:
-        count, links = len(scheme.parts), scheme.links()
-    else:
-        count = max(int(parts.max(initial=-1)) + 1, 0 if given is None else len(given))
-        links = np.eye(count, dtype=bool)
-    per_part = facts.probe_lengths(parts, count, links, given)
-    out = []
-    for found in nearest:
-        if found is None:
-            out.append(None)
-            continue
-        at, skirt = found
-        out.append(per_part[skirt_segments(parts[at], scheme) if skirt else parts[at]])
-    return out
-
-
-def _nearest_part(facts, vertices, faces, parts, scheme):
-    """(each garment vertex's nearest body vertex, whether the garment is a skirt under the
-    ``scheme`` the body's ``parts`` follow), kept with the body's facts: the next frame of a
-    garment that has not moved (a render after a light's tweak, a still garment in an
-    animation) finds it again instead of searching (30-40 ms a frame on Fig 4.13)."""
-    key = b"render nearest" + digest(vertices, faces, *(() if parts is None else (parts,))) + repr(scheme).encode()
-    found = facts.prepared(key)
-    if found is not None:
-        return found
-    search = facts.search
-    at = search.vertex_ids[search.tree.query(vertices, workers=-1)[1]]
-    skirt = bool(parts is not None and scheme is not None and len(faces)
-                 and is_skirt(faces, parts[at], scheme, vertices=vertices, body_vertices=facts.vertices,
-                              body_segments=parts))
-    found = (frozen(at), skirt)
-    facts.keep_prepared(key, found)
-    return found
 
 
 def _background(world):
@@ -545,7 +483,7 @@ def register():
 
 
 def unregister():
-    _persistent.update(key=None, scene=None)
+    PERSISTENT.clear()
     for panel in _panels():
         panel.COMPAT_ENGINES.discard(DEFORMRT_RE_layered.bl_idname)
     bpy.utils.unregister_class(DEFORMRT_PT_layered_render)

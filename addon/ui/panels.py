@@ -5,7 +5,7 @@ import json
 import bpy
 
 from ..jellyfish import animal as jellyfish
-from ..layers import scene_roles, staleness
+from ..layers import report, scene_roles, staleness
 
 
 class DEFORMRT_PT_layers(bpy.types.Panel):
@@ -99,10 +99,10 @@ class DEFORMRT_PT_resolve(bpy.types.Panel):
         row.operator("deformrt.inspect_layers", icon="VIEWZOOM")
         row.operator("deformrt.bake_frames", icon="RENDER_ANIMATION")
         layout.prop(settings, "resolve_on_frame_change")
-        report = _last_report(settings)
-        if report:
+        lines = report_lines(report.read(context.scene))
+        if lines:
             box = layout.box()
-            for line in report:
+            for line in lines:
                 box.label(text=line)
 
 
@@ -129,26 +129,23 @@ class DEFORMRT_PT_jellyfish(bpy.types.Panel):
         layout.operator("deformrt.bake_jellyfish", icon="ANIM")
 
 
-def _last_report(settings):
-    if not settings.last_report:
+def report_lines(last) -> list:
+    """What the panel says of a LayersReport (None: nothing)."""
+    if last is None:
         return []
-    try:
-        data = json.loads(settings.last_report)
-    except ValueError:
-        return []
-    lines = [data.get("message", "")]
-    if data.get("skirts"):
-        lines.append("Skirts: " + ", ".join(data["skirts"]))
-    if data.get("far_from_body"):
-        # the seed's known limit (4.6): cloth far from its body part is not probed
-        lines.append(f"{data['far_from_body']} garment points lie farther from the body than the probe reaches")
-    reach = data.get("probe_by_part") or {}
-    if reach:
-        lines.append("Probe reach: " + ", ".join(f"{p.replace('_', ' ')} {100 * d:.0f} cm" for p, d in reach.items()))
-    for a, b, n in data.get("still_crossing", []):
-        # the seed's known limits (4.6): what the method cannot untangle
+    lines = [last.message]
+    if last.skirts:
+        lines.append("Skirts: " + ", ".join(last.skirts))
+    if last.far_from_body:
+        # the thesis' known limit (4.6): cloth far from its body part is not probed
+        lines.append(f"{last.far_from_body} garment points lie farther from the body than the probe reaches")
+    if last.probe_by_part:
+        lines.append("Probe reach: " + ", ".join(f"{p.replace('_', ' ')} {100 * d:.0f} cm"
+                                                 for p, d in last.probe_by_part.items()))
+    for a, b, n in last.still_crossing:
+        # the thesis' known limits (4.6): what the method cannot untangle
         lines.append(f"{a} and {b} still cross at {n} edges: interlocking, self-intersecting or far from the body?")
-    for name in data.get("inward", []):
+    for name in last.inward:
         lines.append(f"{name}: faces point inward (Mesh > Normals > Recalculate Outside)")
     return lines
 

@@ -1,4 +1,4 @@
-"""The volume spline of seed section 2.3: radial basis functions plus a degree-one polynomial.
+"""The volume spline of thesis section 2.3: radial basis functions plus a degree-one polynomial.
 
 f(P) = sum_j lambda_j phi(|P - P_j|) + nu_0 + nu . P, with the weights from the block
 system [[A, B], [B^T, 0]] [lambda; nu] = [h; 0] (eq. 2.4-2.6). Used for the jellyfish bell's
@@ -105,7 +105,7 @@ class VolumeSpline:
 
     def bending_energy(self) -> float:
         """h^T A^-1 h summed over the value columns, A^-1 being the upper-left N x N block of
-        the inverse of the block matrix (the seed's bending energy matrix): equal to lambda . h,
+        the inverse of the block matrix (the thesis' bending energy matrix): equal to lambda . h,
         zero exactly when the values come from an affine map."""
         return float((self.weights * self.values).sum())
 

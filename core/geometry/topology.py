@@ -7,6 +7,7 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse import csgraph
 
+from .cache import Cache
 from .keys import digest
 
 
@@ -57,7 +58,7 @@ def _numbered_adjacency(edges: np.ndarray, n_vertices: int):
 
 
 def path_distance(adjacency: sparse.csr_matrix, lengths: np.ndarray, seeds: np.ndarray, limit: float) -> np.ndarray:
-    """Length of the shortest path along edges from any seed vertex, up to ``limit``; inf
+    """Length of the shortest path along edges from any start vertex, up to ``limit``; inf
     beyond. ``adjacency`` symmetric, ``lengths`` the length of each of its stored entries
     (MeshTopology.adjacency_edge maps them to edges). How far apart two points are over the
     cloth, which a fold bringing them face to face does not shorten."""
@@ -119,7 +120,8 @@ class MeshTopology:
         return self._hem_loops
 
 
-_topologies: dict = {}
+# the last few meshes' topologies, by content: a garment's next frame finds its own
+TOPOLOGIES = Cache(max_entries=16)
 
 
 def faces_key(faces: np.ndarray) -> bytes:
@@ -127,14 +129,12 @@ def faces_key(faces: np.ndarray) -> bytes:
     return digest(np.ascontiguousarray(faces, dtype=np.int64))
 
 
-def topology_of(faces: np.ndarray, n_vertices: int, keep: int = 16, key: bytes | None = None) -> MeshTopology:
+def topology_of(faces: np.ndarray, n_vertices: int, key: bytes | None = None) -> MeshTopology:
     """The MeshTopology of ``faces``, remembered across calls (by content) for the last few.
     ``key``: faces_key(faces), when the caller has it already."""
     key = (n_vertices, faces_key(faces) if key is None else key)
-    found = _topologies.pop(key, None)
+    found = TOPOLOGIES.get(key)
     if found is None:  # only then the int64 copy (Blender's faces come as int32)
         found = MeshTopology(np.ascontiguousarray(faces, dtype=np.int64), n_vertices)
-    _topologies[key] = found  # most recent last
-    while len(_topologies) > keep:
-        _topologies.pop(next(iter(_topologies)))
+        TOPOLOGIES.put(key, found)
     return found

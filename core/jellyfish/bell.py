@@ -1,10 +1,10 @@
-"""The jellyfish bell's 2D cross-section and its contraction by RBF space mapping (seed 3.3, 3.5).
+"""The jellyfish bell's 2D cross-section and its contraction by RBF space mapping (thesis 3.3, 3.5).
 
 The bell is two hemi-ellipses over the same diameter, the exumbrella (upper) and the
 subumbrella (lower), meeting at the margins. A creature moves k control points on the
 right half (mirrored to the left) to destinations d_i; ten anchors stay put (the eight
 border points of the domain's box and the two bell points on the axis, N = 10 + k as in
-the seed). At phase s in [0, 1] the control points sit at q + s (d - q) and a thin-plate
+the thesis). At phase s in [0, 1] the control points sit at q + s (d - q) and a thin-plate
 volume spline carries every bell point along.
 """
 
@@ -98,7 +98,7 @@ class BellMap:
         self.spline = VolumeSpline(self.centers, self.displacement)
 
     def bending_energy(self) -> float:
-        """E^b of the full contraction: x^T A^-1 x + y^T A^-1 y (seed 3.5)."""
+        """E^b of the full contraction: x^T A^-1 x + y^T A^-1 y (thesis 3.5)."""
         return self.spline.bending_energy()
 
     def displacement_at(self, points, s):

@@ -1,4 +1,4 @@
-"""The 3D jellyfish for animation (seed 3.6): the 2D contour turned about the bell's axis,
+"""The 3D jellyfish for animation (thesis 3.6): the 2D contour turned about the bell's axis,
 and a 3D volume spline driven by the creature's control points at several angles around
 the axis, which carries the bell, its veins and the tentacles' roots along.
 

@@ -1,6 +1,6 @@
-"""Maximisers over the unit cube for expensive, batched objectives (seed 3.5).
+"""Maximisers over the unit cube for expensive, batched objectives (thesis 3.5).
 
-``ga_sa`` is the seed's genetic algorithm with simulated-annealing selection (Mahfoud and
+``ga_sa`` is the thesis' genetic algorithm with simulated-annealing selection (Mahfoud and
 Goldberg's parallel recombinative simulated annealing): real-valued chromosomes, blend
 crossover, replace-by-random mutation, and each child competes with its parent in a
 Boltzmann trial at temperature T = 1 / (G_offset + log(1 + G)). ``random_search`` is the
@@ -71,7 +71,7 @@ def accept(child, parent, t, rng):
 
 
 def agreed(fitness, tolerance):
-    """The population agrees within ``tolerance`` of its best (the seed's 10 % stop)."""
+    """The population agrees within ``tolerance`` of its best (the thesis' 10 % stop)."""
     f = np.asarray(fitness, float)
     if not np.isfinite(f).all():
         return False
@@ -95,7 +95,7 @@ def ga_sa(objective, x0, rng, population=10, generations=30, g_offset=5.0, cross
     history = []
     try:
         fit = track(pop)
-        # the seed's temperature is in fitness units; measured in the first population's
+        # the thesis' temperature is in fitness units; measured in the first population's
         # fitness spread it means the same whatever the weights and scales of eq. 3.14
         finite = fit[np.isfinite(fit)]
         scale = float(finite.std()) if len(finite) > 1 and finite.std() > 0 else 1.0
@@ -110,7 +110,7 @@ def ga_sa(objective, x0, rng, population=10, generations=30, g_offset=5.0, cross
             mix = rng.random((len(a), d))
             blend = rng.random((len(a), 1)) < crossover
             lo, hi = np.minimum(pop[a], pop[b]), np.maximum(pop[a], pop[b])
-            # crossover: a value drawn between the parents' (the seed's real-valued variant)
+            # crossover: a value drawn between the parents' (the thesis' real-valued variant)
             child_a = np.where(blend, lo + mix * (hi - lo), pop[a])
             child_b = np.where(blend, lo + (1 - mix) * (hi - lo), pop[b])
             children = np.vstack([child_a, child_b])

@@ -1,8 +1,8 @@
-"""Particle operators of the moving-particle semi-implicit family (seed 3.4, eq. 3.2-3.9).
+"""Particle operators of the moving-particle semi-implicit family (thesis 3.4, eq. 3.2-3.9).
 
 A ``Neighbours`` set holds every interacting pair (i, j) once per direction, the weight
 w(|r_ij|, r_e,i) with r_e per particle (variable near boundaries makes the Laplacian
-unsymmetric, as in the seed) and optionally a periodic box. Extra "ghost" particles that
+unsymmetric, as in the thesis) and optionally a periodic box. Extra "ghost" particles that
 mirror or copy real ones (walls, periodic images) can be appended by the caller; the
 operators then see ``values`` for real and ghost particles alike and return rows for the
 first ``n_rows`` particles.

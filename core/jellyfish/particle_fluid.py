@@ -1,9 +1,9 @@
-"""A 2D incompressible particle-gridless hybrid fluid (seed 3.4, after Yoon, Koshizuka and Oka).
+"""A 2D incompressible particle-gridless hybrid fluid (thesis 3.4, after Yoon, Koshizuka and Oka).
 
 Particles start each step on a regular lattice. The Lagrangian phase traces where each
 lattice particle's fluid came from (a midpoint back-trace) and takes the velocity there
 from a cubic spline through the lattice; the particles are thus returned to the lattice
-every step (the seed's step 6), which keeps the MPS operators accurate. Viscosity and body
+every step (the thesis' step 6), which keeps the MPS operators accurate. Viscosity and body
 forces are implicit (backward Euler with the MPS Laplacian, eq. 3.5), so a stiff viscosity
 costs no extra steps; the pressure Poisson equation (3.9) with the MPS divergence (3.7) is
 solved as one sparse system and its gradient (3.4) makes the velocity divergence-free.
@@ -21,11 +21,12 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.ndimage import map_coordinates, spline_filter
 
+from ..geometry.cache import Cache
 from .mps import Neighbours, lattice
 
 SIDES = ("left", "right", "bottom", "top")
 # Factored pressure matrices by lattice: an optimisation simulates many creatures on one.
-_PRESSURE_CACHE = {}
+PRESSURE_FACTORS = Cache(max_entries=4)
 
 
 class FluidBlowUp(RuntimeError):
@@ -295,8 +296,8 @@ class LatticeFluid:
     def _pressure_system(self):
         key = (self.box.width, self.box.height, tuple(self.box.periodic), self.nx, self.ny, self.re,
                self.pressure_solver)
-        if self._pressure is None and key in _PRESSURE_CACHE:
-            self._pressure = _PRESSURE_CACHE[key]
+        if self._pressure is None:
+            self._pressure = PRESSURE_FACTORS.get(key)
         if self._pressure is None:
             lap = self._nb.laplacian_matrix(self.n0, self.lam, self._column).tolil()
             # the walls and periodic sides fix the pressure only up to a constant: pin particle
@@ -306,9 +307,7 @@ class LatticeFluid:
             pinned[0, 0] = 1.0
             lap = lap.tocsr()
             self._pressure = (lap, spla.splu(pinned.tocsc()) if self.pressure_solver == "direct" else None)
-            if len(_PRESSURE_CACHE) >= 4:
-                _PRESSURE_CACHE.pop(next(iter(_PRESSURE_CACHE)))
-            _PRESSURE_CACHE[key] = self._pressure
+            PRESSURE_FACTORS.put(key, self._pressure)
         return self._pressure
 
     def _project(self, u, dt):

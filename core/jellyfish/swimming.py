@@ -1,12 +1,12 @@
-"""One swimming cycle of an artificial jellyfish (seed chapter 3): the bell contracts and
+"""One swimming cycle of an artificial jellyfish (thesis chapter 3): the bell contracts and
 relaxes by its creature's space map inside the particle fluid, and swims by what it pushes.
 
 The bell acts on the fluid by direct forcing: lattice particles inside the bell (or closer to
 its contour than ``min_thickness`` / 2, so the thin margin still blocks the flow) take the
 bell's velocity, its deformation rate from the space map plus its swimming speed V along the
 axis. The domain is periodic and nothing else pushes, so fluid and bell (density equal to
-water's, as in the seed) keep their total momentum: V follows from it at every step. This
-is the seed's fluid force on the bell (eq. 3.10-3.12) integrated implicitly, which stays
+water's, as in the thesis) keep their total momentum: V follows from it at every step. This
+is the thesis' fluid force on the bell (eq. 3.10-3.12) integrated implicitly, which stays
 stable although the bell is no heavier than the water it displaces.
 """
 
@@ -25,7 +25,7 @@ class JellyfishConfig:
     bell: BellShape = field(default_factory=BellShape)
     box: float = 0.20  # m, square periodic domain
     particles: int = 100  # per side
-    substeps: int = 14  # steps per contraction-relaxation cycle (the seed's Table 3.1)
+    substeps: int = 14  # steps per contraction-relaxation cycle (the thesis' Table 3.1)
     period: float = 1.0  # s per cycle
     viscosity: float = 1.0e-6  # m^2/s, water
     density: float = 1000.0
@@ -44,7 +44,7 @@ class JellyfishConfig:
 
 
 def default_config(**changes) -> JellyfishConfig:
-    """The seed's Aurelia case: 10 cm bell, 20 x 20 cm domain, 100 x 100 particles, 14 substeps."""
+    """The thesis' Aurelia case: 10 cm bell, 20 x 20 cm domain, 100 x 100 particles, 14 substeps."""
     return replace(JellyfishConfig(), **changes)
 
 
@@ -84,7 +84,7 @@ class FitnessScales:
 
 def fitness(path_m, bending_energy, energy_loss, config, scales: FitnessScales | None = None):
     """Eq. 3.14, w_d D - w_b E^b - w_e E^l. With ``scales`` each term is over the reference's
-    (the seed divides E^l by the largest seen so far, which makes the fitness of one creature
+    (the thesis divides E^l by the largest seen so far, which makes the fitness of one creature
     change with the others; a fixed reference keeps it one objective for every method).
     Without, D is in bell diameters and the energies are left out."""
     w_d, w_b, w_e = config.weights
@@ -223,7 +223,7 @@ def simulate_cycle(creature: Creature, config: JellyfishConfig | None = None, sa
 class StrokeSpace:
     """Where a search looks: each control point's destination as an offset from its rest
     place, in bell radii, between ``low`` and ``high``; the contraction share in between its
-    bounds (the seed keeps the search to strokes that are not "definitely too much")."""
+    bounds (the thesis keeps the search to strokes that are not "definitely too much")."""
 
     low: tuple = ((-0.5, -0.4), (-0.2, -0.1))
     high: tuple = ((0.1, 0.15), (0.05, 0.05))
@@ -281,7 +281,7 @@ def optimize(config: JellyfishConfig | None = None, method="ga-sa", seed=0, popu
              progress=None, stop=None, **options) -> OptimizeResult:
     """The creature with the best fitness (eq. 3.14, scaled by the default creature's cycle).
 
-    method: "ga-sa" (the seed's; ``population`` creatures, at most ``generations``, stops
+    method: "ga-sa" (the thesis'; ``population`` creatures, at most ``generations``, stops
     when the population agrees within 10 %), "de" (scipy differential evolution) or "random";
     the last two spend ``budget`` evaluations (default what ga-sa may spend at most).
     workers: processes (default every core; 1 runs here); scheduler: a Dask address instead.

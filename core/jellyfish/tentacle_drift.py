@@ -1,4 +1,4 @@
-"""Tentacles carried by the water the bell pushes (seed 3.6: "tentacles follow the water").
+"""Tentacles carried by the water the bell pushes (thesis 3.6: "tentacles follow the water").
 
 A tentacle point is tethered to where the bell holds it and dragged by the water around it:
 its drift d from rest obeys dd/dt = (u_water - u_bell) - d / tether_time, with the water's

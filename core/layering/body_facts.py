@@ -4,12 +4,11 @@ pays for the body's normals, radii, nearest-point search and part junctions once
 
 from __future__ import annotations
 
-import threading
-
 import numpy as np
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from ..geometry.cache import Cache, nbytes
 from ..geometry.keys import digest
 from ..geometry.normals import vertex_normals
 from ..geometry.topology import topology_of, vertex_adjacency
@@ -18,12 +17,12 @@ from ..rays.scene import RayScene
 from ..rays.scene_cache import forget_scenes
 from .correspondence import closest_point_on_triangles, incident_triangles, local_radius, surface_search
 
-_KEEP = 4
-_kept: dict = {}
+# the last few bodies' facts, by content
+BODIES = Cache(max_entries=4)
 # garments' pre-processing kept per body: a figure's four garments a few times over, within a
-# memory budget (about 120 bytes a garment vertex)
-_KEEP_PREPARED = 16
-_KEEP_PREPARED_BYTES = 256 * 2**20
+# memory budget (about 120 bytes a garment vertex); a body made after a change takes the new one
+KEEP_PREPARED = 16
+PREPARED_BYTES = 256 * 2**20
 
 
 def frozen(a):
@@ -41,8 +40,7 @@ class BodyFacts:
         self._normals = self._radius = self._search = self._pieces = self._scene = self._edges = None
         self._normal_agreement = None
         self._junctions = {}
-        self._prepared = {}
-        self._prepared_lock = threading.Lock()  # a background resolve and a frame's may share a body
+        self.prepared_kept = Cache(max_entries=KEEP_PREPARED, max_bytes=PREPARED_BYTES)
 
     @property
     def normals(self) -> np.ndarray:
@@ -101,7 +99,7 @@ class BodyFacts:
         return self._pieces
 
     def part_radius(self, segment, count: int) -> np.ndarray:
-        """Each part's median radius (the seed's l_s per part), for ids 0..count-1 of one
+        """Each part's median radius (the thesis' l_s per part), for ids 0..count-1 of one
         segment id per vertex; NaN for a part with no vertex of its own (the skirt)."""
         segment = np.asarray(segment)
         return np.array([np.median(self.radius[segment == s]) if (segment == s).any() else np.nan
@@ -145,50 +143,29 @@ class BodyFacts:
     def prepared(self, key):
         """What a resolve on this body found for one garment (its body points, normals, parts),
         kept under ``key`` (the digest of everything it was found from), or None."""
-        with self._prepared_lock:
-            found = self._prepared.pop(key, None)
-            if found is None:
-                return None
-            self._prepared[key] = found  # most recent last
-            return found[0]
+        return self.prepared_kept.get(key)
 
     def keep_prepared(self, key, entry) -> None:
         """Keep ``entry`` (a tuple of arrays, BodyCorrespondences and numbers), the least recent
         going first past the count or the memory budget (an entry over the budget is not kept)."""
-        size = _nbytes(entry)
-        if size > _KEEP_PREPARED_BYTES:
-            return
-        with self._prepared_lock:
-            self._prepared[key] = (entry, size)
-            while (len(self._prepared) > _KEEP_PREPARED
-                   or sum(s for _, s in self._prepared.values()) > _KEEP_PREPARED_BYTES):
-                self._prepared.pop(next(iter(self._prepared)))
+        self.prepared_kept.put(key, entry, nbytes(entry))
 
 
 def body_facts(vertices, faces) -> BodyFacts:
     """The BodyFacts of this body, the same object for the same content (the last few bodies)."""
     key = digest(vertices, faces)
-    found = _kept.pop(key, None) or BodyFacts(vertices, faces)
-    _kept[key] = found  # most recent last
-    while len(_kept) > _KEEP:
-        _kept.pop(next(iter(_kept)))
+    found = BODIES.get(key)
+    if found is None:
+        found = BodyFacts(vertices, faces)
+        BODIES.put(key, found)
     return found
-
-
-def _nbytes(value) -> int:
-    if isinstance(value, np.ndarray):
-        return value.nbytes
-    if isinstance(value, tuple):
-        return sum(_nbytes(v) for v in value)
-    return sum(_nbytes(v) for v in vars(value).values()) if hasattr(value, "__dict__") else 0
 
 
 def forget_garments() -> None:
     """Drop what was kept of every garment (the bodies' own facts stay), their ray scenes too:
     resolving garments after it costs what newly draped garments on a known body cost."""
-    for facts in list(_kept.values()):
-        with facts._prepared_lock:
-            facts._prepared.clear()
+    for facts in BODIES.values():
+        facts.prepared_kept.clear()
     forget_scenes()
 
 

@@ -100,3 +100,16 @@ def back_off(body_scene, body_vertices, body_edges, before, after, faces, edges,
         tri = tri[bad[corners[:, 0]] | bad[corners[:, 1]] | bad[corners[:, 2]]]
         e = edges[bad[edges[:, 0]] | bad[edges[:, 1]]]
     return out, int(went_back.sum())
+
+
+def keep_out_of_body(stack, k) -> None:
+    """The body guard on layer k of a LayerStack: where its moves put cloth through the body, they
+    are taken back (before the layers under it are fitted to it). A correspondence passed in
+    bounds no distance from below, so there every moved triangle is asked. The layer's scene
+    serves the layers under it next: built here, it is not built twice."""
+    near = np.zeros(len(stack.verts[k])) if stack.params.correspondence[k] is not None else stack.clearance[k]
+    kept_out, n_back = back_off(stack.body.scene, stack.body_vertices, stack.body.edges, stack.rest[k], stack.verts[k],
+                                stack.faces[k], stack.edges[k], near, stack.scenes[k].full)
+    if n_back:
+        stack.moved(k, kept_out)
+        stack.backed_off += n_back

@@ -1,4 +1,4 @@
-"""Garment-to-body correspondence: nearest body surface point, global normals (seed 4.3, Fig. 4.6).
+"""Garment-to-body correspondence: nearest body surface point, global normals (thesis 4.3, Fig. 4.6).
 
 The correspondence (body triangle + barycentrics per garment vertex) is found once at
 rest; a posed body's normals are then read through it without searching again.
@@ -26,7 +26,7 @@ class BodyCorrespondence:
     distance: np.ndarray  # (n,) distance to the body surface
 
     def normals(self, body_vertex_normals: np.ndarray, body_faces: np.ndarray) -> np.ndarray:
-        """Interpolated unit body normals at the corresponding points (the seed's n')."""
+        """Interpolated unit body normals at the corresponding points (the thesis' n')."""
         corners = rows(body_vertex_normals, rows(body_faces, self.triangle))  # (n, 3, 3)
         n = np.einsum("ij,ijk->ik", self.bary, corners)
         return unit(n)
@@ -235,7 +235,7 @@ def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
 
 
 def local_radius(vertices, faces, normals=None, scene: RayScene | None = None) -> np.ndarray:
-    """Half the chord length straight through the body from each vertex (the seed's l_s, per vertex).
+    """Half the chord length straight through the body from each vertex (the thesis' l_s, per vertex).
 
     Rays go inward along -normal; a vertex whose ray finds nothing (open or odd geometry)
     takes the median of the rest.

@@ -1,4 +1,4 @@
-"""What a resolve finds for each garment before it moves anything (seed 4.3's pre-processing):
+"""What a resolve finds for each garment before it moves anything (thesis 4.3's pre-processing):
 its body points, global normals n', parts and probe distances l_s, and which garments come near
 another at all (the rest skip every stage, the body search too). What it finds is kept with the
 body's facts under the content of everything it came from, so resolving the same garments again
@@ -54,12 +54,17 @@ class GarmentPrep:
     (vertices farther from the body than their probe reaches). ``complete()`` prepares the
     garments the resolve did not trace, for a caller that reads them."""
 
-    def __init__(self, body, garr, body_seg, scheme, links, one_part, l_seg, radius, local_probe, junctions, margin,
-                 offset, given_normals, given_segments, given_corr):
+    def __init__(self, body, garr, params, reach):
+        """``params``: the resolve's LayeringParameters; ``reach``: its ProbeReach."""
+        body_seg, scheme, links, one_part = params.body_segments, params.scheme, params.links, params.one_part
+        l_seg, radius, local_probe, margin = reach.per_segment, reach.radius, reach.local, params.segment_margin
+        given_normals, given_segments = params.global_normals, params.garment_segments
+        given_corr = params.correspondence
         self.body, self.garr, self.body_seg, self.scheme = body, garr, body_seg, scheme
         self.one_part, self.l_seg, self.radius, self.local_probe = one_part, l_seg, radius, local_probe
-        self.junctions, self.margin = junctions, margin
+        self.junctions, self.margin = reach.junctions, margin
         self.given_normals, self.given_segments, self.given_corr = given_normals, given_segments, given_corr
+        offset = params.gap  # a stage moves a vertex by at most l_s plus the gap
         n_g = len(garr)
         self.corr, self.normals, self.vseg, self.vseg2, self.probe_len = ([None] * n_g for _ in range(5))
         self.clearance, self.mean_edge = [None] * n_g, [0.0] * n_g
@@ -199,7 +204,7 @@ class GarmentPrep:
             # the corner's own nearest less the corner's distance (the others are asked)
             lower = self.body.junction_distance(body_seg)[corner] - norms(v - rows(bv, corner))
             lower[s != body_seg[corner]] = 0.0
-            border = _border_segment(v, c.distance, s, self.junctions, self.margin, lower)
+            border = border_segment(v, c.distance, s, self.junctions, self.margin, lower)
         far = int((c.distance > lv).sum()) if len(v) else 0
         # distance is 1-Lipschitz: the distance to the body point bounds the distance to the
         # body from below, unless the vertex is inside it (behind its body point's normal)
@@ -314,7 +319,7 @@ def _big_in_reach(points, nearest_distance, body, budget=1_000_000):
     return np.unique(search.big[near[ti[d2 <= r[pi] ** 2]]])
 
 
-def _border_segment(points, distance, primary, junctions, margin, lower=None):
+def border_segment(points, distance, primary, junctions, margin, lower=None):
     """Per point, the other part at the nearest junction of its own part within sqrt(2) times
     its body distance plus ``margin``, else -1. Near a border between parts, a garment's triangles and
     the vertices of the layer below take different parts by a hair; their rays look in both.

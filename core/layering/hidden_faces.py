@@ -1,4 +1,4 @@
-"""Triangles that still show through a higher layer (seed Fig. 4.14): where an edge of one layer
+"""Triangles that still show through a higher layer (thesis Fig. 4.14): where an edge of one layer
 passes through a triangle of another, the lower layer's triangle there is hidden.
 
 Each layer's scene is built once. Every layer's edges that reach into the bounds of the

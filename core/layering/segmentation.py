@@ -1,6 +1,6 @@
-"""Body-part segmentation and the tracing hierarchy (seed 4.4 pre-processing 2, Fig. 4.7).
+"""Body-part segmentation and the tracing hierarchy (thesis 4.4 pre-processing 2, Fig. 4.7).
 
-A scheme names the segment ids: the seed's static S=5 (torso, right arm, left arm, right
+A scheme names the segment ids: the thesis' static S=5 (torso, right arm, left arm, right
 leg, left leg, then the skirt) and a 13-part one for posed figures. Probe rays of a
 segment only meet triangles of the segments it is linked to: itself, and for the skirt
 the torso and both legs (a skirt or dress spans both legs, so its triangles cannot be
@@ -54,7 +54,7 @@ class Scheme:
 
 
 S5 = Scheme("S5", ("torso", "right_arm", "left_arm", "right_leg", "left_leg", "skirt"), skirt_spans=(3, 4))
-# The seed names S=13 for dynamic poses without listing the parts; ours splits each limb
+# The thesis names S=13 for dynamic poses without listing the parts; ours splits each limb
 # at the elbow/knee and wrist/ankle, where posed figures bend (the head stays with the torso).
 S13 = Scheme("S13", ("torso", "right_upper_arm", "left_upper_arm", "right_forearm", "left_forearm", "right_hand",
                      "left_hand", "right_thigh", "left_thigh", "right_shin", "left_shin", "right_foot", "left_foot",
@@ -323,7 +323,7 @@ def hull_normals(body_vertices, body_segments, parts, points) -> np.ndarray:
     """Outward normals for skirt points: from the convex hull of the body parts it spans.
 
     Body normals between the legs point sideways at the other leg; the hull bridges the
-    gap, so its normals point out of the skirt as a whole (the seed's "manual intervention"
+    gap, so its normals point out of the skirt as a whole (the thesis' "manual intervention"
     for skirts, done automatically).
     """
     hull = _skirt_hull(np.asarray(body_vertices, dtype=np.float64)[np.isin(body_segments, parts)], parts)

@@ -4,59 +4,42 @@ for a layer nothing moved, nor for the first scene of one that moves."""
 
 from __future__ import annotations
 
-import threading
-from collections import OrderedDict
-
 import numpy as np
 
+from ..geometry.cache import Cache
 from .scene import RayScene
 
-# What the kept scenes may hold, about: a scene of n triangles over m vertices takes its BVH and
-# float32 buffers in Embree plus its own float64 vertices, faces and plane table
-BUDGET_BYTES = 256 << 20
-_TRIANGLE_BYTES, _VERTEX_BYTES = 180, 40
+# What the kept scenes may hold, about 256 MiB (KEPT.max_bytes)
+KEPT = Cache(max_bytes=256 << 20)
 
-_kept: OrderedDict = OrderedDict()  # key -> (scene, bytes), most recently asked last
-_held = 0
-_lock = threading.Lock()
+
+def scene_bytes(n_triangles: int, n_vertices: int) -> int:
+    """About what a kept scene holds: its BVH and float32 buffers in Embree plus its own float64
+    vertices, faces and plane table."""
+    return 180 * n_triangles + 40 * n_vertices
 
 
 def kept_scene(key, vertices, faces) -> tuple[RayScene, bool]:
     """(scene over ``faces`` at ``vertices``, whether it was kept). ``key`` must name that content
     (a digest of the arrays it comes from); a scene made here is built over its own copy of the
     vertices, so a caller writing into its arrays later cannot change a kept one."""
-    global _held
-    with _lock:
-        found = _kept.pop(key, None)
-        if found is not None:
-            _kept[key] = found
-            return found[0], True
+    found = KEPT.get(key)
+    if found is not None:
+        return found, True
     scene = RayScene(np.array(vertices, dtype=np.float64), faces)
     scene.commit()  # a kept scene may be traced from two threads: none of them commits it then
-    size = _TRIANGLE_BYTES * len(scene.faces) + _VERTEX_BYTES * len(scene.vertices)
-    if size > BUDGET_BYTES:
-        return scene, False
-    with _lock:
-        if key not in _kept:
-            _kept[key] = (scene, size)
-            _held += size
-        while _held > BUDGET_BYTES:
-            _, (_, dropped) = _kept.popitem(last=False)
-            _held -= dropped
+    KEPT.put(key, scene, scene_bytes(len(scene.faces), len(scene.vertices)), replace=False)
     return scene, False
 
 
 def forget_scenes() -> None:
     """Drop every kept scene."""
-    global _held
-    with _lock:
-        _kept.clear()
-        _held = 0
+    KEPT.clear()
 
 
 def kept_bytes() -> int:
     """About how much the kept scenes hold."""
-    return _held
+    return KEPT.held_bytes()
 
 
-__all__ = ["BUDGET_BYTES", "forget_scenes", "kept_bytes", "kept_scene"]
+__all__ = ["KEPT", "forget_scenes", "kept_bytes", "kept_scene", "scene_bytes"]

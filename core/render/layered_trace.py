@@ -1,4 +1,4 @@
-"""Layered ray tracing for display (seed 4.4): the first hit a camera ray should show.
+"""Layered ray tracing for display (thesis 4.4): the first hit a camera ray should show.
 
 A ray that meets layer n looks back along -n' (the global normal at the hit) for a higher
 layer within the probe distance l_s. Finding one means the hit point pokes out of a garment

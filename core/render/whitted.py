@@ -1,4 +1,4 @@
-"""Whitted-style shading (seed 2.4) over a LayeredScene: Blinn-Phong with shadow rays
+"""Whitted-style shading (thesis 2.4) over a LayeredScene: Blinn-Phong with shadow rays
 (eq. 2.7-2.8), mirror reflection with a recursion limit and an importance cutoff on the NTSC
 luminance of what a ray still carries (2.9-2.11), refraction by Snell with Schlick's Fresnel
 (2.12-2.13) and Beer-Lambert attenuation inside transmissive objects (2.14).

@@ -47,9 +47,8 @@ DEMO_SCENES = ("fig_4_12", "fig_4_13", "tubes")
 
 
 def _cmd_demo(args) -> int:
-    import json
-
     from ...addon.io import mesh_io
+    from ...addon.layers import report as reports
     from ...addon.layers import scene_roles
     from ...core.layering import metrics
     from ...sample_scenes import catalog, studio
@@ -79,7 +78,7 @@ def _cmd_demo(args) -> int:
     if bpy.ops.deformrt.resolve_layers() != {"FINISHED"}:
         raise RuntimeError("deformrt.resolve_layers did not finish")
     operator_s = time.perf_counter() - t0
-    report = json.loads(scene.deformrt.last_report)
+    report = reports.read(scene)
     _, layers_after = evaluated_layers()
     cross_after = metrics.layer_crossings(layers_after)
     render_after_s = studio.render_cycles(scene, out / "after.png", resolution=size, samples=args.samples)
@@ -95,14 +94,14 @@ def _cmd_demo(args) -> int:
         "|---|---|---|---:|---:|---:|---:|---:|---:|",
     ]
     for i, (obj, arr) in enumerate(zip(objs, arrays, strict=True)):
-        move = 1000 * report["max_move"][i - 1] if i else 0.0
-        hidden = report["faces_hidden"][i - 1] if i else 0
+        move = 1000 * report.max_move[i - 1] if i else 0.0
+        hidden = report.faces_hidden[i - 1] if i else 0
         lines.append(
             f"| {obj.name} | {obj.deformrt.role.lower()} | {obj.deformrt.layer} | {len(arr.vertices)} "
             f"| {len(arr.triangles)} | {int(cross_before[i].sum())} | {int(cross_after[i].sum())} "
             f"| {move:.1f} | {hidden} |"
         )
-    st, sec = report["stages_s"], report["seconds"]
+    st, sec = report.stages_s, report.seconds
     lines += [
         "",
         "| stage | seconds |",
@@ -123,7 +122,7 @@ def _cmd_demo(args) -> int:
         f"Poke-through (covered pixels over 16 views where a lower layer shows in front of a higher one): "
         f"{100 * poke_before:.2f}% before, {100 * poke_after:.2f}% after. Crossing edges: "
         f"{int(np.triu(cross_before).sum()):,} before, {int(np.triu(cross_after).sum()):,} after. Body parts: "
-        f"{report['parts']}.",
+        f"{report.parts}.",
         "",
         "Renders: before.png (as fitted one by one), after.png (resolved; the garments' meshes are unchanged, "
         "a DeformRT modifier shows the result).",

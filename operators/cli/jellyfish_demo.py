@@ -1,8 +1,8 @@
-"""``deformrt jellyfish``: the seed's jellyfish run end to end on the bundled sea scene.
+"""``deformrt jellyfish``: the thesis' jellyfish run end to end on the bundled sea scene.
 
 Optimise the stroke on a small budget (deformrt.optimize_jellyfish), bake it
 (deformrt.bake_jellyfish), render one swimming cycle to an 8-frame contact sheet (like the
-seed's Fig. 3.2) and write what was measured to metrics.md.
+thesis' Fig. 3.2) and write what was measured to metrics.md.
 """
 
 import json
@@ -118,7 +118,8 @@ def run(args) -> int:
         "|---|---:|---:|---:|---:|---:|",
     ]
     scales = reference_scales(config)
-    for name, c, cr in (("default (seed's Aurelia)", before, default_creature(config)), ("optimised", after, creature)):
+    for name, c, cr in (("default (thesis' Aurelia)", before, default_creature(config)),
+                        ("optimised", after, creature)):
         score = fitness(c.path_m, c.bending_energy, c.energy_loss, config, scales)
         rows.append(f"| {name} | {score:+.3f} | {c.path_m / d:.4f} "
                     f"| {c.bending_energy:.3g} | {c.energy_loss:.3g} | {cr.contraction:.2f} |")

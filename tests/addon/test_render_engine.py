@@ -430,16 +430,16 @@ def test_probe_distance_zero_takes_the_body_radius_under_each_vertex(extension):
     sphere that is its radius everywhere (half the chord through the centre)."""
     import trimesh
 
-    engine = importlib.import_module(f"{extension.__name__}.addon.render.engine")
+    rule = importlib.import_module(f"{extension.__name__}.core.layering.probes")
     body = trimesh.creation.icosphere(subdivisions=4, radius=0.1)
     shirt = trimesh.creation.icosphere(subdivisions=3, radius=0.12)
     objects = [(body.vertices, body.faces), (shirt.vertices, shirt.faces), (shirt.vertices + 1.0, shirt.faces)]
-    probes = engine.body_probes(objects, [0, 1, None])
+    probes = rule.body_probes(objects, [0, 1, None])
     np.testing.assert_allclose(probes[0], 0.1, rtol=0.01)
     np.testing.assert_allclose(probes[1], 0.1, rtol=0.01)
     assert probes[2] is None  # a prop: the default
-    assert engine.body_probes(objects[1:], [1, None]) is None  # no body: the default everywhere
-    assert engine.body_probes(objects, [0, 1, None], given=0.03) == 0.03  # one distance for all
+    assert rule.body_probes(objects[1:], [1, None]) is None  # no body: the default everywhere
+    assert rule.body_probes(objects, [0, 1, None], given=0.03) == 0.03  # one distance for all
 
 
 def test_probe_distance_follows_the_body_parts_and_their_overrides(extension):
@@ -447,7 +447,7 @@ def test_probe_distance_follows_the_body_parts_and_their_overrides(extension):
     10 cm and a 4 cm ball, a garment over each, and a per-part override replacing one."""
     import trimesh
 
-    engine = importlib.import_module(f"{extension.__name__}.addon.render.engine")
+    rule = importlib.import_module(f"{extension.__name__}.core.layering.probes")
     big = trimesh.creation.icosphere(subdivisions=4, radius=0.1)
     small = trimesh.creation.icosphere(subdivisions=4, radius=0.04)
     shift = np.array([0.5, 0.0, 0.0])
@@ -458,26 +458,26 @@ def test_probe_distance_follows_the_body_parts_and_their_overrides(extension):
     shell = trimesh.creation.icosphere(subdivisions=3, radius=0.05)
     shell_v = shell.vertices * [1.0, 1.3, 1.0] + shift
     objects = [(body_v, body_f), (big.vertices * 1.2, big.faces), (shell_v, shell.faces)]
-    probes = engine.body_probes(objects, [0, 1, 2], parts=parts)
+    probes = rule.body_probes(objects, [0, 1, 2], parts=parts)
     np.testing.assert_allclose(probes[1], 0.1, rtol=0.01)
     np.testing.assert_allclose(probes[2], 0.04, rtol=0.01)
     np.testing.assert_allclose(probes[0][parts == 1], 0.04, rtol=0.01)
     np.testing.assert_allclose(probes[0][parts == 0], 0.1, rtol=0.01)
     # what sends no probe (the outermost layer) is not looked up: the default
-    skipped = engine.body_probes(objects, [0, 1, 2], parts=parts, traced=[True, True, False])
+    skipped = rule.body_probes(objects, [0, 1, 2], parts=parts, traced=[True, True, False])
     assert skipped[2] is None
     np.testing.assert_array_equal(skipped[1], probes[1])
-    probes = engine.body_probes(objects, [0, 1, 2], given=np.array([np.nan, 0.02]), parts=parts)
+    probes = rule.body_probes(objects, [0, 1, 2], given=np.array([np.nan, 0.02]), parts=parts)
     np.testing.assert_allclose(probes[1], 0.1, rtol=0.01)  # NaN: the part keeps its radius
     np.testing.assert_array_equal(probes[2], 0.02)
     with pytest.raises(ValueError, match="need the body's parts"):
-        engine.body_probes(objects, [0, 1, 2], given=np.array([np.nan, 0.02]))
+        rule.body_probes(objects, [0, 1, 2], given=np.array([np.nan, 0.02]))
     # each garment's nearest body vertices are kept for the next frame, by content: the shell
     # moved in place onto the big ball takes the big ball's radius; one part for the whole body,
     # the median radius of both balls
     shell_v -= shift
-    np.testing.assert_allclose(engine.body_probes(objects, [0, 1, 2], parts=parts)[2], 0.1, rtol=0.01)
-    one = engine.body_probes(objects, [0, 1, 2], parts=np.zeros_like(parts))
+    np.testing.assert_allclose(rule.body_probes(objects, [0, 1, 2], parts=parts)[2], 0.1, rtol=0.01)
+    one = rule.body_probes(objects, [0, 1, 2], parts=np.zeros_like(parts))
     np.testing.assert_array_equal(one[2], np.median(one[0]))
     assert 0.04 < one[2][0] < 0.1
 
@@ -491,20 +491,20 @@ def test_a_skirt_probes_as_far_as_the_resolve_takes_it_and_its_override_counts(e
     from sample_scenes.shapes import tube
     from tests.core.layered_cases import lower_body, mesh
 
-    engine = importlib.import_module(f"{extension.__name__}.addon.render.engine")
+    rule = importlib.import_module(f"{extension.__name__}.core.layering.probes")
     body, parts = lower_body()
     skirt = mesh(*tube(0.18, 0.2, 0.62, n_around=64, n_along=24))
     trouser = mesh(*tube(0.085, 0.05, 0.49, n_around=32, n_along=12))
     trouser.apply_translation([-0.09, 0.0, 0.0])
     objects = [(body.vertices, body.faces), (skirt.vertices, skirt.faces), (trouser.vertices, trouser.faces)]
-    probes = engine.body_probes(objects, [0, 1, 2], parts=parts, scheme="S5")
+    probes = rule.body_probes(objects, [0, 1, 2], parts=parts, scheme="S5")
     on_legs = np.isin(parts[cKDTree(body.vertices).query(skirt.vertices)[1]], (3, 4))
     assert on_legs.sum() > len(on_legs) / 3
     np.testing.assert_allclose(probes[1][on_legs], 0.15, rtol=0.05)
     np.testing.assert_allclose(probes[2][trouser.vertices[:, 2] < 0.45], 0.07, rtol=0.05)
     given = np.full(6, np.nan)
     given[5] = 0.03  # S5's skirt
-    probes = engine.body_probes(objects, [0, 1, 2], given=given, parts=parts, scheme="S5")
+    probes = rule.body_probes(objects, [0, 1, 2], given=given, parts=parts, scheme="S5")
     np.testing.assert_array_equal(probes[1][on_legs], 0.03)
     np.testing.assert_allclose(probes[2][trouser.vertices[:, 2] < 0.45], 0.07, rtol=0.05)
 
@@ -710,7 +710,7 @@ def test_persistent_data_keeps_the_ray_scenes_while_the_meshes_stay_the_same(ext
     scene.render.use_persistent_data = True
     first = _render(studio, scene, tmp_path)
     again = _render(studio, scene, tmp_path)
-    assert len(made) == 1 and engine._persistent["scene"] is not None
+    assert len(made) == 1 and len(engine.PERSISTENT) == 1
     np.testing.assert_array_equal(again, first)
     shirt = bpy.data.objects["Shirt"]
     shirt.location.x += 0.3  # the shirt's evaluated mesh moves in world space: a new scene
@@ -718,4 +718,4 @@ def test_persistent_data_keeps_the_ray_scenes_while_the_meshes_stay_the_same(ext
     assert len(made) == 2 and not np.array_equal(moved, first)
     scene.render.use_persistent_data = False
     _render(studio, scene, tmp_path)
-    assert len(made) == 3 and engine._persistent["scene"] is None
+    assert len(made) == 3 and len(engine.PERSISTENT) == 0

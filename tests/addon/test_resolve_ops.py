@@ -348,7 +348,7 @@ def test_inspect_measures_before_and_after(extension, tubes):
     body, (shirt, jacket) = tubes
     bpy.ops.deformrt.inspect_layers()
     fitted = json.loads(bpy.context.scene.deformrt.last_report)
-    assert fitted["crossings_before"] == fitted["crossings_after"] > 0 and fitted["max_move"] == 0.0
+    assert fitted["crossings_before"] == fitted["crossings_after"] > 0 and fitted["max_move_m"] == 0.0
     # the pair that still crosses is named (the body crosses nothing)
     assert fitted["still_crossing"] == [[shirt.name, jacket.name, fitted["crossings_after"]]]
     bpy.ops.deformrt.resolve_layers()
@@ -358,7 +358,7 @@ def test_inspect_measures_before_and_after(extension, tubes):
     assert report["crossings_after"] == 0 and report["poke_through_after"] < report["poke_through_before"]
     assert report["still_crossing"] == []
     # the move it measures from the shown geometry is the move the resolve reported
-    assert report["max_move"] == pytest.approx(max(moved), rel=1e-4)
+    assert report["max_move_m"] == pytest.approx(max(moved), rel=1e-4)
 
 
 def _attribute(obj, name):
@@ -417,18 +417,16 @@ def test_garments_near_no_other_are_left_as_fitted_and_named(extension, tubes):
 
 
 def test_panel_summary_names_skirts_far_points_and_inward_garments(extension):
-    from types import SimpleNamespace
-
-    panels = sub(extension, "addon.ui.panels")
+    panels, reports = sub(extension, "addon.ui.panels"), sub(extension, "addon.layers.report")
     report = {"message": "Resolved 2 garments", "skirts": ["Dress"], "far_from_body": 12, "inward": ["Shirt"],
               "probe_by_part": {"torso": 0.14, "left_arm": 0.04}, "still_crossing": [["Shirt", "Jacket", 7]]}
-    lines = panels._last_report(SimpleNamespace(last_report=json.dumps(report)))
+    lines = panels.report_lines(reports.from_json(json.dumps(report)))
     assert lines[0] == "Resolved 2 garments" and "Skirts: Dress" in lines
     assert any("12 garment points" in x for x in lines)
     assert any(x.startswith("Shirt: faces point inward") for x in lines)
     assert "Probe reach: torso 14 cm, left arm 4 cm" in lines
     assert any(x.startswith("Shirt and Jacket still cross at 7 edges") for x in lines)
-    assert panels._last_report(SimpleNamespace(last_report="not json")) == []
+    assert panels.report_lines(reports.from_json("not json")) == []
 
 
 def test_falling_sheets_are_corrected_frame_by_frame_and_switching_off_gives_the_solver_back(extension,

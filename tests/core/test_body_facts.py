@@ -70,9 +70,9 @@ def test_junction_distance_is_each_vertex_s_nearest_junction_of_its_own_part_by_
 
 
 def test_border_parts_are_the_same_with_the_lower_bound_that_skips_far_points():
-    """_border_segment with a lower bound on each point's junction distance (here the exact one,
+    """border_segment with a lower bound on each point's junction distance (here the exact one,
     the tightest, so points at the reach's edge are skipped or asked by a hair) against without."""
-    from core.layering.garment_prep import _border_segment
+    from core.layering.garment_prep import border_segment
 
     rng = np.random.default_rng(3)
     pos = rng.uniform(-1, 1, (60, 3))
@@ -81,19 +81,19 @@ def test_border_parts_are_the_same_with_the_lower_bound_that_skips_far_points():
     primary, distance = rng.integers(0, 4, 4000), rng.uniform(0, 0.2, 4000)  # part 3 has no junction
     exact = np.array([np.linalg.norm(pos[own == p] - x, axis=1).min() if (own == p).any() else np.inf
                       for x, p in zip(points, primary, strict=True)])
-    plain = _border_segment(points, distance, primary, (pos, own, other), 0.05)
-    bounded = _border_segment(points, distance, primary, (pos, own, other), 0.05, lower=exact)
+    plain = border_segment(points, distance, primary, (pos, own, other), 0.05)
+    bounded = border_segment(points, distance, primary, (pos, own, other), 0.05, lower=exact)
     np.testing.assert_array_equal(bounded, plain)
     assert (plain >= 0).sum() > 100 and (plain < 0).sum() > 100  # both kinds of answer are there
     # a bound that is not one (too large) would drop answers: the test can tell
-    assert (_border_segment(points, distance, primary, (pos, own, other), 0.05, lower=exact + 0.1) != plain).any()
+    assert (border_segment(points, distance, primary, (pos, own, other), 0.05, lower=exact + 0.1) != plain).any()
 
 
 def test_a_resolve_with_kept_facts_equals_one_from_scratch():
     body = body_tube()
     garments = list(noisy_sleeves(n=30))
     first = resolve_layers(body, garments)
-    bf_module._kept.clear()
+    bf_module.BODIES.clear()
     again = resolve_layers(body, garments)
     for a, b in zip(first.garments, again.garments, strict=True):
         np.testing.assert_array_equal(a.vertices, b.vertices)
@@ -167,7 +167,7 @@ def _same_result(got, want):
 
 
 def _from_scratch(body, garments, **params):
-    bf_module._kept.clear()
+    bf_module.BODIES.clear()
     return resolve_layers(body, garments, **params)
 
 
@@ -210,14 +210,14 @@ def test_what_is_kept_of_garments_stays_within_its_memory_budget(monkeypatch):
     body = body_tube()
     garments = list(noisy_sleeves(n=30))
     want = _from_scratch(body, garments)
-    one = sum(bf_module._nbytes(e) for e, _ in bf_module.body_facts(body.vertices, body.faces)._prepared.values()) // 2
-    monkeypatch.setattr(bf_module, "_KEEP_PREPARED_BYTES", int(1.5 * one))  # room for one sleeve, not two
-    bf_module._kept.clear()
+    one = bf_module.body_facts(body.vertices, body.faces).prepared_kept.held_bytes() // 2
+    monkeypatch.setattr(bf_module, "PREPARED_BYTES", int(1.5 * one))  # room for one sleeve, not two
+    bf_module.BODIES.clear()
     resolve_layers(body, garments)
     again = resolve_layers(body, garments)
     assert again.stats["garments_kept"] == 1
     _same_result(again, want)
-    monkeypatch.setattr(bf_module, "_KEEP_PREPARED_BYTES", 0)
-    bf_module._kept.clear()
+    monkeypatch.setattr(bf_module, "PREPARED_BYTES", 0)
+    bf_module.BODIES.clear()
     resolve_layers(body, garments)
     assert resolve_layers(body, garments).stats["garments_kept"] == 0

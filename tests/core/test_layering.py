@@ -461,12 +461,12 @@ def test_a_large_offset_never_pushes_garments_into_the_body():
 
 def test_culled_hem_scenes_give_the_same_hits_as_the_whole_layer():
     from core.geometry.topology import boundary_vertices
-    from core.layering.resolve import _LayerLayout, _SegmentScenes, _trace_layers
+    from core.layering.tracer import LayerLayout, SegmentScenes, trace_layers
 
     lower, upper = noisy_sleeves(n=48)
     f = np.asarray(lower.faces)
-    layout = _LayerLayout(f, np.zeros(len(f), int), np.eye(1, dtype=bool))
-    scenes = [_SegmentScenes(np.asarray(lower.vertices), layout)]
+    layout = LayerLayout(f, np.zeros(len(f), int), np.eye(1, dtype=bool))
+    scenes = [SegmentScenes(np.asarray(lower.vertices), layout)]
     hem = np.flatnonzero(boundary_vertices(upper.faces, len(upper.vertices)))
     o = np.asarray(upper.vertices)[hem]
     n = np.column_stack([o[:, :2], np.zeros(len(o))])
@@ -474,7 +474,7 @@ def test_culled_hem_scenes_give_the_same_hits_as_the_whole_layer():
     for sign in (1, -1):
         reach = np.full(len(o), 0.03)
         args = (o, sign * n, reach, np.zeros(len(o), int), scenes, [0])
-        t_cull, _, f_cull, _, _ = _trace_layers(*args, cull=True)
+        t_cull, _, f_cull, _, _ = trace_layers(*args, cull=True)
         full = scenes[0].full().intersect(o, sign * n, max_dist=reach)
         assert (np.isfinite(t_cull) == full.hit).all() and full.hit.any()
         np.testing.assert_allclose(t_cull[full.hit], full.t[full.hit], atol=1e-12)
@@ -482,14 +482,14 @@ def test_culled_hem_scenes_give_the_same_hits_as_the_whole_layer():
         a, b = f[f_cull[full.hit]], f[full.face[full.hit]]
         assert (a[:, :, None] == b[:, None, :]).any((1, 2)).all()
     # and the culled scene really is a part of the layer (the hems' bands)
-    _, ids = _SegmentScenes(np.asarray(lower.vertices), layout).get_near(np.arange(len(f)), o, 0.03)
+    _, ids = SegmentScenes(np.asarray(lower.vertices), layout).get_near(np.arange(len(f)), o, 0.03)
     assert len(ids) < 0.5 * len(f)
 
 
 def test_one_scene_per_layer_gives_each_ray_only_its_own_segments_hits():
     """Rays are traced against one scene of the whole layer and pass over triangles of parts
     they may not meet: the answer is brute force over just the triangles they may meet."""
-    from core.layering.resolve import _LayerLayout, _SegmentScenes, _trace_layers
+    from core.layering.tracer import LayerLayout, SegmentScenes, trace_layers
     from tests.core.brute import moller_trumbore
 
     lower, upper = noisy_sleeves(n=32)
@@ -512,8 +512,8 @@ def test_one_scene_per_layer_gives_each_ray_only_its_own_segments_hits():
     reach = np.full(len(o), 0.04)
     allowed = links[segs[:, 0]] | np.where(segs[:, 1:] >= 0, links[np.maximum(segs[:, 1], 0)], False)
     for farthest in (False, True):
-        scenes = [_SegmentScenes(v, _LayerLayout(f, fseg, links))]
-        t, layer, face, _, _ = _trace_layers(o, out, reach, segs, scenes, [0], farthest=farthest)
+        scenes = [SegmentScenes(v, LayerLayout(f, fseg, links))]
+        t, layer, face, _, _ = trace_layers(o, out, reach, segs, scenes, [0], farthest=farthest)
         # brute force per set of parts a ray may meet; the farthest hit within reach is the
         # nearest one coming back from the far end
         start, way = (o + 0.04 * out, -out) if farthest else (o, out)
@@ -531,7 +531,7 @@ def test_one_scene_per_layer_gives_each_ray_only_its_own_segments_hits():
 
 
 def test_segment_bounds_are_the_boxes_of_the_triangles_each_segment_may_meet():
-    from core.layering.resolve import _LayerLayout, _SegmentScenes
+    from core.layering.tracer import LayerLayout, SegmentScenes
 
     lower, _ = noisy_sleeves(n=24)
     v, f = np.asarray(lower.vertices), np.asarray(lower.faces)
@@ -539,12 +539,12 @@ def test_segment_bounds_are_the_boxes_of_the_triangles_each_segment_may_meet():
     seg[v[f].mean(1)[:, 0] > 0.5 * v[:, 0].max()] = 2  # a third on one side
     links = np.eye(3, dtype=bool)
     links[0, 2] = links[2, 0] = True
-    scenes = _SegmentScenes(v, _LayerLayout(f, seg, links))
+    scenes = SegmentScenes(v, LayerLayout(f, seg, links))
     for s in range(3):
         tri = v[f[links[s][seg]]].reshape(-1, 3)
         lo, hi = tri.min(0), tri.max(0)
         # asked first (when the boxes are made) and asked again give the same answers
-        assert not _SegmentScenes(v, _LayerLayout(f, seg, links)).bounds_overlap(s, hi + 1e-9, hi + 1.0)
+        assert not SegmentScenes(v, LayerLayout(f, seg, links)).bounds_overlap(s, hi + 1e-9, hi + 1.0)
         assert scenes.bounds_overlap(s, lo, hi)
         # boxes touching it at either corner overlap; boxes just beside it do not
         assert scenes.bounds_overlap(s, hi, hi + 1.0) and scenes.bounds_overlap(s, lo - 1.0, lo)

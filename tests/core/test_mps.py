@@ -1,4 +1,4 @@
-"""MPS particle operators on regular lattices against exact derivatives and the seed's constants."""
+"""MPS particle operators on regular lattices against exact derivatives and the thesis' constants."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""core.rbf.VolumeSpline against scipy's RBFInterpolator, the seed's bending-energy matrix
+"""core.rbf.VolumeSpline against scipy's RBFInterpolator, the thesis' bending-energy matrix
 formed explicitly, and affine maps it must reproduce exactly."""
 
 import numpy as np

@@ -39,21 +39,21 @@ def test_a_kept_scene_is_built_over_its_own_copy_and_hits_what_brute_force_hits(
 def test_the_kept_scenes_stay_within_their_budget_dropping_the_least_recently_asked(monkeypatch):
     scene_cache.forget_scenes()
     m = trimesh.creation.icosphere(subdivisions=3)  # 1,280 triangles, 642 vertices
-    size = scene_cache._TRIANGLE_BYTES * len(m.faces) + scene_cache._VERTEX_BYTES * len(m.vertices)
-    monkeypatch.setattr(scene_cache, "BUDGET_BYTES", int(2.5 * size))  # room for two
+    size = scene_cache.scene_bytes(len(m.faces), len(m.vertices))
+    monkeypatch.setattr(scene_cache.KEPT, "max_bytes", int(2.5 * size))  # room for two
     meshes = [(np.array(m.vertices) + k, np.array(m.faces)) for k in range(4)]
     keys = [digest(*x) for x in meshes]
     for key, (v, f) in zip(keys[:2], meshes[:2], strict=True):
         scene_cache.kept_scene(key, v, f)
     scene_cache.kept_scene(keys[0], *meshes[0])  # asked again: now the most recent
     scene_cache.kept_scene(keys[2], *meshes[2])  # drops keys[1], the least recently asked
-    assert scene_cache.kept_bytes() <= scene_cache.BUDGET_BYTES
+    assert scene_cache.kept_bytes() <= scene_cache.KEPT.max_bytes
     assert scene_cache.kept_scene(keys[0], *meshes[0])[1]
     assert scene_cache.kept_scene(keys[2], *meshes[2])[1]
     assert not scene_cache.kept_scene(keys[1], *meshes[1])[1]
     big = trimesh.creation.icosphere(subdivisions=5)  # over the whole budget: made, never kept
     scene, kept = scene_cache.kept_scene(digest(big.vertices, big.faces), big.vertices, big.faces)
-    assert not kept and len(scene.faces) == len(big.faces) and scene_cache.kept_bytes() <= scene_cache.BUDGET_BYTES
+    assert not kept and len(scene.faces) == len(big.faces) and scene_cache.kept_bytes() <= scene_cache.KEPT.max_bytes
     scene_cache.forget_scenes()
 
 

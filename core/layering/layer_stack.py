@@ -1,0 +1,88 @@
+"""The garment layers as the stages move them, and how far the body lets each vertex go."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry.topology import topology_of
+from .tracer import LayerLayout, SegmentScenes, face_segment
+
+
+class LayerStack:
+    """Each garment's vertices where the stages have moved them so far, with what stays fixed
+    (faces, topology, hems, n', l_s, parts) and what follows the moves (its ray scenes, each
+    vertex's room in front of the body). Only the garments the pre-processing found near another
+    (``active``) have their topology and scenes; the rest never move."""
+
+    def __init__(self, body, body_vertices, garr, prep, params):
+        n_g = len(garr)
+        self.body, self.body_vertices, self.params, self.n_garments = body, body_vertices, params, n_g
+        self.rest = [v for v, _ in garr]  # as they came
+        self.verts = [v.copy() for v, _ in garr]
+        self.faces = [f for _, f in garr]
+        self.normals, self.probe_len, self.vseg2 = prep.normals, prep.probe_len, prep.vseg2
+        self.active = prep.active
+        # Faces never change, so each garment's edges, hem points and adjacency are found once,
+        # and kept for the next frame of the same garments.
+        self.topo, self.edges, self.hems, self.layouts, self.scenes, self.clearance, self.unbounded = (
+            [None] * n_g for _ in range(7))
+        for i in self.active:
+            self.topo[i] = topology_of(self.faces[i], len(self.verts[i]), key=prep.faces_key(i))
+            self.edges[i], self.hems[i] = self.topo[i].edges, self.topo[i].hem_vertices
+            self.layouts[i] = LayerLayout(self.faces[i], face_segment(self.faces[i], prep.vseg[i]), params.links)
+            self.scenes[i] = SegmentScenes(self.verts[i], self.layouts[i], prep.content(i))
+        self.rays = {"boundary": 0, "push": 0, "hidden": 0}
+        self.moved_by = {"boundary": 0, "push": 0}
+        # A lower bound on each vertex's distance from the body: the distance found at rest minus
+        # every inward move since (distance is 1-Lipschitz). Unlike a ray along -n', it also sees
+        # body parts beside the ray (a joint bulging next to a limb). Inside the body: no bound.
+        for i in self.active:
+            self.clearance[i] = prep.clearance[i]
+        # A correspondence passed in may name body points from another frame (cloth slides over its
+        # collider), whose distance only bounds the real one from above. There a vertex also keeps
+        # no further than it can go along its -n' (every move goes that way) before it meets the
+        # body, found when it is first about to move; what lies beside the ray the body guard sees.
+        for i in self.active:
+            self.unbounded[i] = np.full(len(self.verts[i]), params.correspondence[i] is not None)
+        self.floor_clamped = 0
+        # An edge between two vertices held at the floor bows into a curved body by its sagitta
+        # e^2 / 8R; a tenth of the longest mean edge covers body radii down to 1.25 edges.
+        self.chord = 0.1 * max((prep.mean_edge[i] for i in self.active if len(self.edges[i])), default=0.0)
+        self.built_before_moves = self.kept_before_moves = 0
+        self.push_trace_s = 0.0
+        self.backed_off = 0
+
+    def above(self, k) -> list:
+        """The garments worn over layer k that take part."""
+        return [j for j in self.active if j > k]
+
+    def room_of(self, k, idx):
+        """How far each vertex idx of layer k may still go inward."""
+        unknown = np.unique(idx[self.unbounded[k][idx]])
+        if len(unknown):
+            along = self.body.scene.intersect(self.verts[k][unknown], -self.normals[k][unknown]).t
+            self.clearance[k][unknown] = np.minimum(self.clearance[k][unknown], along)
+            self.unbounded[k][unknown] = False
+        return self.clearance[k][idx] - self.params.offset * (k + 1) / (self.n_garments + 1) - self.chord
+
+    def body_floor(self, k, idx, move):
+        """Cap inward moves so layer k keeps (k+1) d / (N+1) plus the chord allowance in front
+        of the body: layers squeezed against it compress their gaps instead of entering it."""
+        room = self.room_of(k, idx)
+        self.floor_clamped += int((room < move).sum())
+        out = np.clip(np.minimum(move, room), 0.0, None)
+        self.clearance[k][idx] -= out
+        return out
+
+    def moved(self, i, vertices):
+        """Layer i now lies at ``vertices``: its scenes are built anew where it is."""
+        self.verts[i] = vertices
+        self.built_before_moves += self.scenes[i].built
+        self.kept_before_moves += self.scenes[i].kept
+        self.scenes[i] = SegmentScenes(vertices, self.layouts[i])
+
+    def scenes_built(self) -> int:
+        return sum(self.scenes[i].built for i in self.active) + self.built_before_moves
+
+    def scenes_kept(self) -> int:
+        return sum(self.scenes[i].kept for i in self.active) + self.kept_before_moves

@@ -1,0 +1,160 @@
+"""A resolve's inputs and parameters, read and checked once at the boundary, with a message that
+names what is wrong (resolve_layers' docstring says what each parameter means)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import trimesh
+
+from ..geometry.vectors import box
+from .segmentation import Scheme, get_scheme
+
+KNOWN = frozenset({"offset", "probe_distance", "garment_segments", "global_normals", "boundary_pass", "push_behind",
+                   "body_guard", "remove_hidden", "falloff", "scheme", "segment_links", "correspondence",
+                   "segment_margin", "outward_shells"})
+
+
+def check_known(params) -> None:
+    unknown = set(params) - KNOWN
+    if unknown:
+        raise ValueError(f"unknown parameter(s) {sorted(unknown)}; known: {sorted(KNOWN)}")
+
+
+def mesh_arrays(mesh, name):
+    """(vertices float64 (n, 3), faces int64 (m, 3)) of a mesh, checked."""
+    if mesh is None:
+        raise ValueError(f"{name} is missing")
+    if not hasattr(mesh, "vertices") or not hasattr(mesh, "faces"):
+        raise ValueError(f"{name} must be a trimesh.Trimesh (or have .vertices and .faces), got {type(mesh).__name__}")
+    v = np.asarray(mesh.vertices, dtype=np.float64).reshape(-1, 3)
+    f = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
+    if not np.isfinite(v).all():
+        raise ValueError(f"{name} has NaN or infinite vertex coordinates")
+    if len(f) and (f.min() < 0 or f.max() >= len(v)):
+        raise ValueError(f"{name} has faces that refer to vertices outside 0..{len(v) - 1}")
+    return v, f
+
+
+def read_meshes(body, garments):
+    """The body's and each garment's arrays, checked: (body vertices, body faces, [(v, f), ...])."""
+    bv, bf = mesh_arrays(body, "body")
+    if not len(bf):
+        raise ValueError("body has no faces: the garments need a body surface to take normals from")
+    if garments is None or isinstance(garments, trimesh.Trimesh):
+        raise ValueError("garments must be a list of meshes, inner to outer")
+    return bv, bf, [mesh_arrays(g, f"garments[{i}]") for i, g in enumerate(garments)]
+
+
+def _per_garment(value, n, name):
+    if value is None:
+        return [None] * n
+    if len(value) != n:
+        raise ValueError(f"{name} needs one entry per garment ({n}), got {len(value)}")
+    return list(value)
+
+
+def _shell_gap(shells, n_garments) -> float:
+    """What the gap between layers must add for the outward shells given (see resolve_layers)."""
+    if shells is None:
+        return 0.0
+    shells = np.asarray(shells, dtype=np.float64)
+    if shells.shape != (n_garments,) or not np.isfinite(shells).all() or (shells < 0).any():
+        raise ValueError(f"outward_shells must be {n_garments} finite thicknesses >= 0, got {shells.tolist()}")
+    return float(shells[:-1].max(initial=0.0))
+
+
+@dataclass(frozen=True)
+class LayeringParameters:
+    """Everything a resolve was asked, checked, in the units of the scene."""
+
+    offset: float  # d: the gap a lower layer keeps behind a higher one, and from the body
+    gap: float  # d plus the thickest outward shell of a lower layer: what push and tuck leave
+    body_segments: np.ndarray  # part id per body vertex
+    parts_given: bool  # the caller gave the parts (else: the body's connected pieces)
+    scheme: Scheme | None
+    n_segments: int
+    links: np.ndarray  # (S, S) which parts' triangles each part's rays meet
+    one_part: bool  # every part meets every other: traced as one
+    probe_given: np.ndarray | None  # l_s per part asked for, NaN: the part's default; None: all default
+    segment_margin: float
+    diagonal: float  # of the body's box
+    garment_segments: list
+    global_normals: list
+    correspondence: list
+    boundary_pass: bool
+    push_behind: bool
+    body_guard: bool
+    remove_hidden: bool
+    falloff: float | None
+
+    @classmethod
+    def parse(cls, body, bv, bf, garr, body_segments, params) -> LayeringParameters:
+        """From resolve_layers' arguments, on the BodyFacts ``body`` of (bv, bf)."""
+        n_g = len(garr)
+        if body_segments is None:
+            # Separate pieces of the body (a figure modelled as parts) are separate segments.
+            body_seg = body.pieces
+        else:
+            body_seg = np.asarray(body_segments)
+            if body_seg.shape != (len(bv),) or not np.issubdtype(body_seg.dtype, np.integer) or (body_seg < 0).any():
+                raise ValueError(f"body_segments must be {len(bv)} non-negative integers, one per body vertex")
+            body_seg = body_seg.astype(np.int64)
+        g_segments = _per_garment(params.get("garment_segments"), n_g, "garment_segments")
+        g_normals = _per_garment(params.get("global_normals"), n_g, "global_normals")
+        g_corr = _per_garment(params.get("correspondence"), n_g, "correspondence")
+        scheme = params.get("scheme")
+        n_seg = int(body_seg.max()) + 1
+        if scheme is not None:
+            if body_segments is None:
+                raise ValueError("a segmentation scheme names body part ids: pass body_segments with it")
+            scheme = get_scheme(scheme)
+            if n_seg > scheme.skirt:
+                raise ValueError(f"body_segments of scheme {scheme.name} must be ids 0..{scheme.skirt - 1} "
+                                 f"({', '.join(scheme.parts[:-1])}); got up to {n_seg - 1}")
+            n_seg = len(scheme.parts)
+        links = params.get("segment_links")
+        if links is None:
+            links = scheme.links() if scheme is not None else np.eye(n_seg, dtype=bool)
+        else:
+            links = np.asarray(links, dtype=bool)
+            if links.ndim == 0:  # True: every part meets every other (a whole body of separate pieces)
+                links = np.full((n_seg, n_seg), bool(links))
+            if links.shape != (n_seg, n_seg):
+                raise ValueError(f"segment_links must be ({n_seg}, {n_seg}) booleans, got shape {links.shape}")
+            links = links | links.T | np.eye(n_seg, dtype=bool)
+        body_lo, body_hi = box(bv)
+        diag = float(np.linalg.norm(body_hi - body_lo))
+        if diag <= 0:
+            raise ValueError("body has zero size")
+        d = float(params.get("offset", 1e-3 * diag))
+        if not np.isfinite(d) or d < 0:
+            raise ValueError(f"offset must be a finite distance >= 0, got {d}")
+        gap = d + _shell_gap(params.get("outward_shells"), n_g)
+        probe = params.get("probe_distance")
+        given = None if probe is None else np.broadcast_to(np.asarray(probe, dtype=np.float64), (n_seg,)).copy()
+        if given is not None and (np.isinf(given).any() or (given < 0).any()):
+            raise ValueError("probe_distance must be finite and >= 0 (NaN for a part's default)")
+        if given is not None and np.isnan(given).all():
+            given = None
+        margin = float(params.get("segment_margin", 0.01 * diag))
+        if not np.isfinite(margin) or margin < 0:
+            raise ValueError(f"segment_margin must be a finite distance >= 0, got {margin}")
+        for i, (v, _) in enumerate(garr):  # all given inputs checked now: the untraced are prepared later
+            c = g_corr[i]
+            if c is not None and (len(c.triangle) != len(v) or (len(c.triangle) and c.triangle.max() >= len(bf))):
+                raise ValueError(f"correspondence[{i}] is for another mesh: {len(c.triangle)} points for "
+                                 f"{len(v)} vertices, or triangles beyond the body's {len(bf)}")
+            n = g_normals[i]
+            if n is not None and (np.shape(n) != v.shape or not np.isfinite(n).all()):
+                raise ValueError(f"global_normals[{i}] must be finite with shape {v.shape}")
+            s = g_segments[i]
+            if s is not None and (np.shape(s) != (len(v),) or (len(s) and (np.min(s) < 0 or np.max(s) >= n_seg))):
+                raise ValueError(f"garment_segments[{i}] must be {len(v)} ids in 0..{n_seg - 1}")
+        return cls(offset=d, gap=gap, body_segments=body_seg, parts_given=body_segments is not None, scheme=scheme,
+                   n_segments=n_seg, links=links, one_part=scheme is None and bool(links.all()), probe_given=given,
+                   segment_margin=margin, diagonal=diag, garment_segments=g_segments, global_normals=g_normals,
+                   correspondence=g_corr, boundary_pass=bool(params.get("boundary_pass", True)),
+                   push_behind=bool(params.get("push_behind", True)), body_guard=bool(params.get("body_guard", True)),
+                   remove_hidden=bool(params.get("remove_hidden", True)), falloff=params.get("falloff"))

@@ -1,0 +1,52 @@
+"""What resolve_layers returns."""
+
+from __future__ import annotations
+
+
+def _found_on_first_use(name, doc):
+    """A LayeringResult attribute whose untraced garments' entries are found when first read."""
+    def get(self):
+        self._completed()
+        return getattr(self, name)
+    return property(get, doc=doc)
+
+
+class LayeringResult:
+    """What resolve_layers returns. ``garments``: corrected trimesh.Trimesh per garment, hidden
+    faces left out; ``moved``: (n_i, 3) displacement per garment vertex; ``removed_faces``:
+    (m_i,) bool per input face; ``traced``: per garment, whether it came near another garment
+    (the rest cannot move or lose a face and skip every stage); ``stats``: counts and seconds.
+
+    ``global_normals`` (the n' per garment vertex), ``correspondence`` (BodyCorrespondence per
+    garment, rest pose) and ``segments`` (segment id per vertex) of garments whose box was far
+    from every other garment's are found on first use: the body search they need is most of a
+    resolve's time."""
+
+    def __init__(self, garments, moved, removed_faces, traced, normals, correspondence, segments, skirts, stats,
+                 complete):
+        self.garments, self.moved, self.removed_faces, self.traced = garments, moved, removed_faces, traced
+        self._normals, self._corr, self._segments, self._skirts = normals, correspondence, segments, skirts
+        self.stats = stats
+        self._complete = complete  # fills the untraced garments' entries in place
+
+    def _completed(self):
+        if self._complete is not None:
+            self._complete()
+            self._complete = None
+
+    global_normals = _found_on_first_use("_normals", "(n_i, 3) the n' used per garment vertex")
+    correspondence = _found_on_first_use("_corr", "BodyCorrespondence per garment (rest pose)")
+    segments = _found_on_first_use("_segments", "(n_i,) segment id per garment vertex")
+
+    @property
+    def skirts(self) -> list:
+        """Which garments are skirts (their hem goes round both legs), sorted; stats["skirts"]
+        names those the resolve searched the body for."""
+        self._completed()
+        return sorted(self._skirts)
+
+    def found(self) -> tuple[list, list]:
+        """(global normals, correspondence) per garment as the resolve found them, with None for
+        the garments whose body points it did not search, without searching for those: what a
+        caller that reads the others (or passes the correspondence back next frame) needs."""
+        return list(self._normals), list(self._corr)
