@@ -10,7 +10,6 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     f = np.asarray(faces)
     if not len(vertices) or not len(f):
         return np.zeros((len(vertices), 3))
-    # corner by corner and column by column: (m, 3, 3) gathers and np.cross on (m, 3) are slower
     a, b, c = (rows(vertices, f[:, k]) for k in range(3))
     area = cross(b - a, c - a)
     # bincount per axis: several times faster than np.add.at

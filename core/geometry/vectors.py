@@ -1,4 +1,10 @@
-"""Row-wise vector helpers for the hot loops."""
+"""Row-wise vector helpers for the hot loops.
+
+Why DeformRT works on (n, 3) arrays column by column, here and across core: numpy's reductions
+over the short axis of (n, 3) rows (norm, all, any, min, max over axis=1), np.cross, einsum and
+gathers of (m, 3, 3) corners go element by element through a generic loop, several times slower
+than three operations on contiguous columns; where a column is strided, a contiguous copy first
+pays for itself. Where the code below and elsewhere goes column by column, this is why."""
 
 from __future__ import annotations
 

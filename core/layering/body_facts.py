@@ -191,7 +191,7 @@ def part_junctions(vertices, faces, segment):
             if p == q:
                 continue
             inside = np.ones(len(mine), dtype=bool)
-            for k in range(3):  # column by column: all(axis=1) on (n, 3) is slow
+            for k in range(3):
                 inside &= (vertices[mine, k] >= lo[k] - bound) & (vertices[mine, k] <= hi[k] + bound)
             mine = mine[inside]
             if len(mine):

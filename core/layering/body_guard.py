@@ -30,7 +30,6 @@ def crossing_corners(body_scene, body_vertices, body_edges, vertices, faces, tri
     pairs, edge_lo, edge_hi = body_edges
     used = np.zeros(len(vertices), dtype=bool)  # a mask, not a unique: a sort of most of the layer's corners
     used[faces[tri].ravel()] = True
-    # column by column: reductions and all(axis=1) over (n, 3) rows are slow
     lo = [float(vertices[used, axis].min()) for axis in range(3)]
     hi = [float(vertices[used, axis].max()) for axis in range(3)]
     near = np.ones(len(pairs), dtype=bool)

@@ -49,7 +49,7 @@ def _edges_near(vertices, edges, length, lo, hi):
     inside = vertices[:, 0] >= -np.inf
     if len(length):
         reach = float(length.max())
-        for axis in range(3):  # column by column: all(axis=1) on (n, 3) is slow
+        for axis in range(3):
             inside &= (vertices[:, axis] >= lo[axis] - reach) & (vertices[:, axis] <= hi[axis] + reach)
     return np.flatnonzero(inside[edges[:, 0]] & inside[edges[:, 1]] & (length > 0))
 

@@ -67,7 +67,6 @@ def voxel_near(centres, cell, points):
         lo[axis], hi[axis] = slice(None, -1), slice(1, None)
         grid[tuple(hi)] |= grid[tuple(lo)]
         grid[tuple(lo)] |= grid[tuple(hi)]
-    # column by column: reductions over (n, 3) rows are slower
     flat = np.zeros(len(centres), dtype=np.intp)
     inside = np.ones(len(centres), dtype=bool)
     for axis in range(3):
@@ -155,7 +154,6 @@ class SegmentScenes:
             self._bounds = np.full((len(self.layout.links), 2, 3), np.nan)
             corners, starts, seg = self.layout.groups()
             if len(corners):
-                # column by column: a reduction over (n, 3) rows is slower
                 for axis in range(3):
                     at = self.vertices[:, axis][corners]
                     self._bounds[seg, 0, axis] = np.minimum.reduceat(at, starts)
@@ -171,8 +169,7 @@ _PASS_ROUNDS = 8
 
 
 def _either_column(mask):
-    """Rows of a 2-D bool array with any column set, column by column: any(axis=1) over short
-    rows is 10-20x slower."""
+    """Rows of a 2-D bool array with any column set (any(axis=1) over short rows is 10-20x slower)."""
     out = mask[:, 0].copy()
     for k in range(1, mask.shape[1]):
         out |= mask[:, k]
@@ -223,7 +220,6 @@ def trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, f
         members = rows_of[s] = np.flatnonzero(_either_column(segs == s))
         allowed[members] |= links[s]
         reach = max_dist[members]
-        # column by column: a reduction over the long axis of an (n, 3) array is several times slower
         box_of[s] = np.array([[(origins[members, a] - reach).min() for a in range(3)],
                               [(origins[members, a] + reach).max() for a in range(3)]])
     plan = []

@@ -51,3 +51,17 @@ def edge_margin(points, vertices, faces, face_ids):
     u = (d22 * w1 - d12 * w2) / det
     v = (d11 * w2 - d12 * w1) / det
     return np.minimum(np.minimum(u, v), 1 - u - v)
+
+
+def brute_crossings(va, fa, vb, fb):
+    """Edges of either mesh that pass through a triangle of the other, every (edge, triangle) pair
+    tested: what core.layering.metrics.crossings counts."""
+    total = 0
+    for (v1, f1), (v2, f2) in (((va, fa), (vb, fb)), ((vb, fb), (va, fa))):
+        f1 = np.asarray(f1)
+        e = np.unique(np.sort(np.concatenate([f1[:, [0, 1]], f1[:, [1, 2]], f1[:, [2, 0]]]), axis=1), axis=0)
+        v1 = np.asarray(v1, float)
+        vec = v1[e[:, 1]] - v1[e[:, 0]]
+        _, face = moller_trumbore(v1[e[:, 0]], vec, v2, f2, 0.0, np.linalg.norm(vec, axis=1))
+        total += int((face >= 0).sum())
+    return total

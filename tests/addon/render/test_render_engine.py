@@ -695,22 +695,22 @@ def test_persistent_data_keeps_the_ray_scenes_while_the_meshes_stay_the_same(ext
                                                                             tmp_path, monkeypatch):
     """With Blender's Persistent Data on, a second render of the same meshes builds no ray scene and
     shows the same picture; a mesh that moved is built again; with it off nothing is kept."""
-    engine = importlib.import_module(f"{extension.__name__}.addon.render.engine")
+    reading = importlib.import_module(f"{extension.__name__}.addon.render.scene_reading")
     made = []
-    real = engine.LayeredScene
+    real = reading.LayeredScene
 
     def counting(*args, **kwargs):
         made.append(1)
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(engine, "LayeredScene", counting)
+    monkeypatch.setattr(reading, "LayeredScene", counting)
     scene = _engine(clean_scene)
     _stage(scene)
     _garment_pair(scene)
     scene.render.use_persistent_data = True
     first = _render(studio, scene, tmp_path)
     again = _render(studio, scene, tmp_path)
-    assert len(made) == 1 and len(engine.PERSISTENT) == 1
+    assert len(made) == 1 and len(reading.PERSISTENT) == 1
     np.testing.assert_array_equal(again, first)
     shirt = bpy.data.objects["Shirt"]
     shirt.location.x += 0.3  # the shirt's evaluated mesh moves in world space: a new scene
@@ -718,4 +718,4 @@ def test_persistent_data_keeps_the_ray_scenes_while_the_meshes_stay_the_same(ext
     assert len(made) == 2 and not np.array_equal(moved, first)
     scene.render.use_persistent_data = False
     _render(studio, scene, tmp_path)
-    assert len(made) == 3 and len(engine.PERSISTENT) == 0
+    assert len(made) == 3 and len(reading.PERSISTENT) == 0

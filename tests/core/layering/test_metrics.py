@@ -4,18 +4,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from core.layering.metrics import crossings, layer_crossings, unique_edges
-from tests.core.brute import moller_trumbore
-
-
-def brute_crossings(va, fa, vb, fb):
-    total = 0
-    for (v1, f1), (v2, f2) in (((va, fa), (vb, fb)), ((vb, fb), (va, fa))):
-        e = unique_edges(f1)
-        vec = v1[e[:, 1]] - v1[e[:, 0]]
-        t, face = moller_trumbore(v1[e[:, 0]], vec, v2, f2, 0.0, np.linalg.norm(vec, axis=1))
-        total += int((face >= 0).sum())
-    return total
+from core.layering.metrics import crossings, layer_crossings
+from tests.core.brute import brute_crossings
 
 
 def test_two_spheres_cross_on_a_circle():

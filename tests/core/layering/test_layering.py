@@ -6,8 +6,8 @@ import trimesh
 
 from core.layering import resolve_layers
 from core.layering.metrics import crossings, unique_edges
+from tests.core.brute import brute_crossings
 from tests.core.layered_cases import body_tube, capped_cylinder, mesh, noisy_sleeves, sheet, slab_body
-from tests.core.test_metrics import brute_crossings
 
 
 def radial(v):

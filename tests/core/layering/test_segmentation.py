@@ -22,8 +22,8 @@ from core.layering.segmentation import (
     skirt_segments,
 )
 from sample_scenes.shapes import tube
+from tests.core.brute import brute_crossings
 from tests.core.layered_cases import lower_body, mesh
-from tests.core.test_metrics import brute_crossings
 
 
 @pytest.mark.parametrize("name, s5, s13", [
