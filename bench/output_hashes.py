@@ -135,6 +135,27 @@ def jellyfish(out):
     out("jellyfish cycle", digest(np.array([res.path_m, res.bending_energy, res.energy_loss, res.fitness])))
 
 
+def jellyfish_bake(out):
+    """The baked bell and its parts at five frames (shape keys and keyframes from the default stroke)."""
+    import bpy
+
+    bpy.ops.wm.read_homefile(use_empty=True)
+    assert bpy.ops.deformrt.add_jellyfish(size=0.5, segments=16, tentacles=4, veins=2) == {"FINISHED"}
+    assert bpy.ops.deformrt.bake_jellyfish(frame_start=1, frame_end=30, cycle_frames=12) == {"FINISHED"}
+    arrays = []
+    for frame in (1, 5, 13, 22, 30):
+        bpy.context.scene.frame_set(frame)
+        for obj in bpy.context.scene.objects:
+            if obj.type in ("MESH", "CURVE"):
+                ev = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+                mesh = ev.to_mesh()
+                co = np.empty(len(mesh.vertices) * 3, np.float32)
+                mesh.vertices.foreach_get("co", co)
+                ev.to_mesh_clear()
+                arrays += [co, np.array(obj.matrix_world, np.float32)]
+    out("jellyfish bake", digest(*arrays))
+
+
 def main():
     import argparse
 
@@ -151,6 +172,7 @@ def main():
     figures(out)
     cloth(out, Path(args.cloth_folder).resolve())
     jellyfish(out)
+    jellyfish_bake(out)
 
 
 if __name__ == "__main__":

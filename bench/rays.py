@@ -14,7 +14,8 @@ import trimesh
 from bench.report import machine, table, write_section
 from core import embree_direct
 from core.geometry.parallel import map_chunks
-from core.rays import _MIN_RAYS_PER_CHUNK, RayScene, _float32_dist
+from core.rays import RayScene
+from core.rays.embree import MIN_RAYS_PER_CHUNK, float32_dist
 from tests.core.brute import moller_trumbore
 
 
@@ -55,7 +56,7 @@ def embreex_alone(scene, origins32, directions32, reach32):
     """The rays traced by embreex's run on ``scene``'s Embree scene, in the slices and threads
     RayScene uses, with nothing done before or after."""
     return map_chunks(lambda sl: scene._scene.run(origins32[sl], directions32[sl], dists=reach32[sl].copy(),
-                                                  output=1), len(origins32), _MIN_RAYS_PER_CHUNK, scene.threads)
+                                                  output=1), len(origins32), MIN_RAYS_PER_CHUNK, scene.threads)
 
 
 def best_of(fn, repeat=3):
@@ -115,7 +116,7 @@ def main(argv=None):
             # RayScene splits them: Embree's own share of the time above
             org = np.ascontiguousarray(o - sc._center, dtype=np.float32)
             dirs = np.ascontiguousarray(d / np.linalg.norm(d, axis=1)[:, None], dtype=np.float32)
-            reach = _float32_dist(np.full(len(o), np.inf) if dist is None else dist)
+            reach = float32_dist(np.full(len(o), np.inf) if dist is None else dist)
             raw_s, _ = best_of(lambda sc=sc, org=org, dirs=dirs, reach=reach: embreex_alone(sc, org, dirs, reach))
             rows.append([kind, f"{len(o):,}", "embreex alone (the same rays, float32 ready)", threads,
                          f"{raw_s * 1e3:.0f}", f"{len(o) / raw_s / 1e6:.2f}", ""])

@@ -16,7 +16,8 @@ import bpy
 import numpy as np
 
 from ...core.jellyfish import bell3d
-from ...core.jellyfish.bell import BellShape, Creature, phase
+from ...core.jellyfish.bell import BellShape, Creature
+from ...core.jellyfish.keyframes import swim_frames
 from ...core.jellyfish.swimming import default_config, default_creature, simulate_cycle
 from ...core.jellyfish.tentacle_drift import water_drift
 from ..io import blender_versions
@@ -245,30 +246,21 @@ def bake(scene, bell, frame_start, frame_end, cycle_frames, wobble=0.03, seed=0,
             drift = water_drift(cycle, config, np.column_stack([np.hypot(p[:, 0], p[:, 1]), p[:, 2]]))
             drifts[child.name] = (drift, _water_keys(child, drift, scale))
         parts.append(child)
-    rest_volume = bell3d.volume(rest[:n_bell], bell_faces)
-    speed = cycle.speed
-    times = np.arange(1, len(speed) + 1) / len(speed)
-    travelled = np.concatenate([[0.0], cycle.swum])
     z0 = bell.location.z
-    for frame in range(frame_start, frame_end + 1):
-        cycles, tau = divmod((frame - frame_start) / cycle_frames, 1.0)
-        s = float(phase(tau, creature.contraction))
-        w = 0.5 * (np.sin(2 * np.pi * (frame - frame_start) / (1.7 * cycle_frames) + seed) + 1.0)
-        now = rest[:n_bell] + s * moved[:n_bell] + w * wob[:n_bell]
-        offset = bell3d.volume_offset(now, bell_faces, normals[:n_bell], rest_volume) / thickness
-        y = cycles * cycle.path_m + float(np.interp(tau, np.concatenate([[0.0], times]), travelled))
-        for obj, values in ((bell, {KEYS[0]: s, KEYS[1]: w, KEYS[2]: offset}),
-                            *((c, {KEYS[0]: s, KEYS[1]: w}) for c in parts)):
+    for f in swim_frames(cycle, creature, frame_start, frame_end, cycle_frames, seed, rest[:n_bell], moved[:n_bell],
+                         wob[:n_bell], bell_faces, normals[:n_bell], thickness):
+        for obj, values in ((bell, {KEYS[0]: f.contraction, KEYS[1]: f.wobble, KEYS[2]: f.volume}),
+                            *((c, {KEYS[0]: f.contraction, KEYS[1]: f.wobble}) for c in parts)):
             if obj.name in drifts:
                 drift, peaks = drifts[obj.name]
-                for k, v in enumerate(water * drift.weights_at(tau) / peaks):
+                for k, v in enumerate(water * drift.weights_at(f.tau) / peaks):
                     values[WATER_KEY.format(k + 1)] = float(v)
             blocks = obj.data.shape_keys.key_blocks
             for name, v in values.items():
                 blocks[name].value = v
-                blocks[name].keyframe_insert("value", frame=frame)
-        bell.location.z = z0 + y * scale
-        bell.keyframe_insert("location", index=2, frame=frame)
+                blocks[name].keyframe_insert("value", frame=f.frame)
+        bell.location.z = z0 + f.rise_m * scale
+        bell.keyframe_insert("location", index=2, frame=f.frame)
     bell.location.z = z0
     scene.frame_set(scene.frame_current)
     source = "the optimised stroke" if optimised else "the default stroke (nothing optimised yet)"

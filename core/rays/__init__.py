@@ -1,6 +1,8 @@
-"""Rays against triangle meshes: the RayScene API over Embree (through embreex), with trimesh's
-numpy intersector as the fallback, and the scenes kept between calls."""
+"""Rays against triangle meshes: the RayScene API (scene), one module per backend (embree through
+embreex, with Embree's instancing in embree_direct; numpy_backend, trimesh's intersector, where
+embreex is missing), and the scenes kept between calls (scene_cache)."""
 
-from .scene import HAVE_EMBREE, RayHits, RayScene, SceneUnion, step_past_hit, thread_count, unit_rays
+from .embree import HAVE_EMBREE
+from .scene import RayHits, RayScene, SceneUnion, step_past_hit, thread_count, unit_rays
 
 __all__ = ["HAVE_EMBREE", "RayHits", "RayScene", "SceneUnion", "step_past_hit", "thread_count", "unit_rays"]

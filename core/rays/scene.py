@@ -10,43 +10,14 @@ Without embreex the same answers come from trimesh's numpy intersector.
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 
 from ..geometry.parallel import map_chunks, thread_count
 from ..geometry.topology import used_vertices
 from ..geometry.vectors import box, cross, norms, rows
-from . import embree_direct
+from . import embree, embree_direct, numpy_backend
 
-try:
-    from embreex import rtcore as _rtc
-    from embreex import rtcore_scene as _rtcs
-    from embreex.mesh_construction import TriangleMesh as _EmbreeTriangles
-
-    HAVE_EMBREE = True
-except ImportError:  # pragma: no cover - exercised by the fallback test via monkeypatch
-    HAVE_EMBREE = False
-
-__all__ = ["HAVE_EMBREE", "RayHits", "RayScene", "SceneUnion", "step_past_hit", "thread_count", "unit_rays"]
-
-# Below this many rays a thread hand-off costs more than it saves.
-_MIN_RAYS_PER_CHUNK = 8192
-_device = None
-_warned_fallback = False
-
-
-def _new_embree_scene():
-    return _rtcs.EmbreeScene(_get_device())
-
-
-def _get_device():
-    # One Embree device per process: creating one per scene spawns thread pools each time.
-    global _device
-    if _device is None:
-        _device = _rtc.EmbreeDevice()
-    return _device
-
+__all__ = ["RayHits", "RayScene", "SceneUnion", "step_past_hit", "thread_count", "unit_rays"]
 
 class RayHits:
     """First hit per ray.
@@ -179,15 +150,15 @@ class RayScene:
         self._fallback = None
         if not len(f):
             return
-        if HAVE_EMBREE:
-            self._scene = _new_embree_scene()
-            if embree_direct.available(_new_embree_scene):
+        if embree.HAVE_EMBREE:
+            self._scene = embree.new_scene()
+            if embree_direct.available(embree.new_scene):
                 self._mesh = embree_direct.Triangles(self._scene, v - self._center, f)
             else:
                 # The flat (m,3,3) constructor copies about 30% faster than the indexed one.
-                _EmbreeTriangles(self._scene, v[f] - self._center)
+                embree.TriangleMesh(self._scene, v[f] - self._center)
         else:
-            self._fallback = _fallback_intersector(v, f)
+            self._fallback = numpy_backend.intersector(v, f)
 
     def update(self, vertices) -> None:
         """New positions for the same faces: written into the buffers Embree shares and
@@ -223,7 +194,7 @@ class RayScene:
         part._groups, part._group_start, part._moves = {}, [], 0
         if self._mesh is not None:
             groups = [self._group(a, b) for a, b in ranges]
-            part._scene = _new_embree_scene()
+            part._scene = embree.new_scene()
             embree_direct.instance(part._scene, [g.handle for g in groups])
             part._center, part._held = self._center, groups
             part._face_base = np.asarray(self._group_start, np.int64)  # geomID -> first face
@@ -241,10 +212,25 @@ class RayScene:
             self._group_start.append(start)
         return self._groups[start, stop]
 
-    def _version(self):
+    def version(self):
         """What changes when the triangles this scene traces move."""
         owner = self._parent if self._parent is not None else self
         return id(owner), owner._moves
+
+    @property
+    def center(self) -> np.ndarray:
+        """The point Embree's float32 copy of this scene is centred on."""
+        return self._center
+
+    def instance_handles(self) -> list | None:
+        """Handles of the Embree scenes holding this scene's triangles, for another scene to
+        instance (a part's own groups, not the part: Embree instances one level deep); None when
+        this scene is not traced by Embree."""
+        if self._scene is None:
+            return None
+        if self._face_base is not None:
+            return [g.handle for g in self._held]
+        return [embree_direct.handle_of(self._scene)]
 
     def _check_fresh(self):
         if self._parent is not None and self._parent._moves != self._parent_moves:
@@ -272,7 +258,7 @@ class RayScene:
 
     @property
     def backend(self) -> str:
-        return "embree" if HAVE_EMBREE else "numpy"
+        return "embree" if embree.HAVE_EMBREE else "numpy"
 
     def intersect(self, origins, directions, max_dist=None, min_dist=None, scaled=False) -> RayHits:
         """First hit of each ray with ``min_dist <= t <= max_dist`` (per ray or scalar).
@@ -337,7 +323,7 @@ class RayScene:
                 unit = d[idx] / scale[:, None]
             out[idx] = self._fallback(o[idx], unit, tmin[idx] * scale, tmax[idx] * scale)[1] >= 0
             return out
-        out[idx] = _embree_occluded(self._scene, self._center, self.threads, o[idx], d[idx],
+        out[idx] = embree.occluded(self._scene, self._center, self.threads, o[idx], d[idx],
                                     None if min_dist is None else tmin[idx], tmax[idx] - tmin[idx])
         return out
 
@@ -345,11 +331,11 @@ class RayScene:
         """Build the acceleration structure now (else the first ray after a build or a move
         does), so callers can time the build apart from tracing."""
         if self._scene is not None:
-            _commit(self._scene)
+            embree.commit(self._scene)
 
     def _map_chunks(self, fn, n):
         self.commit()
-        return map_chunks(fn, n, _MIN_RAYS_PER_CHUNK, self.threads)
+        return map_chunks(fn, n, embree.MIN_RAYS_PER_CHUNK, self.threads)
 
     def _trace_embree(self, o, d, tmax):
         n = len(o)
@@ -362,7 +348,8 @@ class RayScene:
         def run(sl):
             oo, dd, hi = o[sl], d[sl], tmax[sl]
             org = np.ascontiguousarray(oo - self._center, dtype=np.float32)
-            r = self._scene.run(org, np.ascontiguousarray(dd, dtype=np.float32), dists=_float32_dist(hi), output=1)
+            r = self._scene.run(org, np.ascontiguousarray(dd, dtype=np.float32), dists=embree.float32_dist(hi),
+                                output=1)
             face = self._to_faces(r["primID"].astype(np.int64), r["geomID"])
             hit = face >= 0
             idx = np.flatnonzero(hit)  # integer takes: boolean indexing of (n, 3) rows is slower
@@ -447,27 +434,6 @@ def _occlusion_rays(origins, directions, max_dist, min_dist, scaled):
     return o, d, tmin, tmax, np.zeros(n, dtype=bool), idx
 
 
-def _commit(scene):
-    """Build an embreex scene's BVH if it is not built."""
-    if not scene.is_committed:
-        # embreex commits on its first ray: one ray here, on one thread, not in several chunks at once
-        scene.run(np.zeros((1, 3), np.float32), np.array([[0.0, 0.0, 1.0]], np.float32))
-
-
-def _embree_occluded(scene, center, threads, o, d, lo, span):
-    """Occlusion of rays from ``o`` (+ ``d`` x ``lo``, if given) over ``span`` against an
-    embreex scene built about ``center`` (committed first)."""
-    _commit(scene)
-
-    # each worker converts its own slice to float32, so that runs on every core too
-    def run(sl):
-        start = o[sl] if lo is None else o[sl] + d[sl] * lo[sl, None]
-        return scene.run((start - center).astype(np.float32), d[sl].astype(np.float32),
-                         dists=_float32_dist(span[sl]), query="OCCLUDED")
-
-    return np.concatenate(map_chunks(run, len(o), _MIN_RAYS_PER_CHUNK, threads)) >= 0
-
-
 class SceneUnion:
     """Occlusion against several scenes at once, for rays that only need to know whether any of
     them is in the way: one Embree scene instancing theirs, so each ray crosses one BVH over
@@ -478,24 +444,23 @@ class SceneUnion:
     def __init__(self, scenes):
         self._members = [s for s in scenes if len(s.faces)]
         self.threads = max((s.threads for s in self._members), default=thread_count())
-        self._versions = [s._version() for s in self._members]
+        self._versions = [s.version() for s in self._members]
         self._scene = None
-        direct = [s for s in self._members if s._scene is not None]
-        if len(self._members) > 1 and len(direct) == len(self._members) and embree_direct.available(_new_embree_scene):
+        direct = len(self._members) > 1 and all(s.backend == "embree" for s in self._members)
+        held = [s.instance_handles() for s in self._members] if direct and embree_direct.available(embree.new_scene) \
+            else None
+        if held is not None and all(h is not None for h in held):
             for s in self._members:
                 s.commit()  # Embree builds an instanced scene before the one holding it
-            self._center = np.mean([s._center for s in self._members], axis=0)
-            self._scene = _new_embree_scene()
-            # a part's own groups, not the part: Embree instances one level deep
-            held = [[g.handle for g in s._held] if s._face_base is not None else [embree_direct.handle_of(s._scene)]
-                    for s in self._members]
+            self._center = np.mean([s.center for s in self._members], axis=0)
+            self._scene = embree.new_scene()
             embree_direct.instance(self._scene, [h for hs in held for h in hs],
-                                   [s._center - self._center for s, hs in zip(self._members, held, strict=True)
+                                   [s.center - self._center for s, hs in zip(self._members, held, strict=True)
                                     for _ in hs])
 
     def occluded(self, origins, directions, max_dist=None, min_dist=None, scaled=False) -> np.ndarray:
         """As :meth:`RayScene.occluded`, against every member."""
-        if [s._version() for s in self._members] != self._versions:
+        if [s.version() for s in self._members] != self._versions:
             raise RuntimeError("a scene of this union has moved since: make the union again")
         if self._scene is None:
             out = np.zeros(len(origins), dtype=bool)
@@ -505,7 +470,7 @@ class SceneUnion:
         o, d, tmin, tmax, out, idx = _occlusion_rays(origins, directions, max_dist, min_dist, scaled)
         if idx is None:
             return out
-        out[idx] = _embree_occluded(self._scene, self._center, self.threads, o[idx], d[idx],
+        out[idx] = embree.occluded(self._scene, self._center, self.threads, o[idx], d[idx],
                                     None if min_dist is None else tmin[idx], tmax[idx] - tmin[idx])
         return out
 
@@ -517,40 +482,3 @@ def step_past_hit(length, lo, hi):
     return 1e-6 * (length + float(norms((np.asarray(hi) - np.asarray(lo))[None])[0]))
 
 
-def _float32_dist(dist: np.ndarray) -> np.ndarray:
-    # Embree's "no limit" is a huge finite float; inf also works but keep it explicit.
-    return np.ascontiguousarray(np.minimum(dist, 1e37), dtype=np.float32)
-
-
-def _fallback_intersector(vertices, faces):
-    global _warned_fallback
-    if not _warned_fallback:
-        warnings.warn(
-            "embreex is not installed: DeformRT falls back to trimesh's numpy ray engine, "
-            "which is one to two orders of magnitude slower.",
-            RuntimeWarning,
-            stacklevel=3,
-        )
-        _warned_fallback = True
-    import trimesh
-    from trimesh.ray.ray_triangle import RayMeshIntersector
-
-    mesh = trimesh.Trimesh(vertices, faces, process=False, validate=False)
-    engine = RayMeshIntersector(mesh)
-
-    def trace(o, d, tmin, tmax):
-        n = len(o)
-        t = np.full(n, np.inf)
-        face = np.full(n, -1, dtype=np.int64)
-        tri, ray, loc = engine.intersects_id(o, d, multiple_hits=True, return_locations=True)
-        if len(tri):
-            dist = np.einsum("ij,ij->i", loc - o[ray], d[ray])
-            keep = (dist >= tmin[ray]) & (dist <= tmax[ray])
-            tri, ray, dist = tri[keep], ray[keep], dist[keep]
-            order = np.lexsort((dist, ray))
-            first = order[np.r_[True, ray[order][1:] != ray[order][:-1]]] if len(order) else order
-            t[ray[first]] = dist[first]
-            face[ray[first]] = tri[first]
-        return t, face
-
-    return trace

@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from core.rays import RayScene, SceneUnion, embree_direct
-from core.rays import scene as rays
+from core.rays import RayScene, SceneUnion, embree, embree_direct, numpy_backend
 from tests.core.brute import edge_margin, moller_trumbore
 
 
@@ -91,7 +90,7 @@ def test_max_and_min_distance_per_ray(rng):
 def test_threads_give_identical_hits(rng, monkeypatch):
     v, f = random_soup(rng, n_tri=2000)
     o, d = random_rays(rng, 100_000)
-    monkeypatch.setattr(rays, "_MIN_RAYS_PER_CHUNK", 1000)
+    monkeypatch.setattr(embree, "MIN_RAYS_PER_CHUNK", 1000)
     one = RayScene(v, f, threads=1).intersect(o, d)
     two = RayScene(v, f, threads=2).intersect(o, d)
     np.testing.assert_array_equal(one.face, two.face)
@@ -105,7 +104,7 @@ def test_occlusion_in_chunks_keeps_each_rays_own_range(rng, monkeypatch):
     o, d = random_rays(rng, 6000)
     tmin = rng.uniform(0.0, 0.5, len(o))
     tmax = rng.uniform(0.0, 2.0, len(o))  # about a tenth below tmin: nothing can be met there
-    monkeypatch.setattr(rays, "_MIN_RAYS_PER_CHUNK", 500)
+    monkeypatch.setattr(embree, "MIN_RAYS_PER_CHUNK", 500)
     occ = RayScene(v, f, threads=2).occluded(o, d, max_dist=tmax, min_dist=tmin)
     _, f_ref = moller_trumbore(o, d, v, f, tmin, tmax)
     assert not occ[tmax < tmin].any()
@@ -204,7 +203,7 @@ def test_updated_scene_answers_for_the_moved_triangles(rng, stretch):
     small moves and triangles stretched far out of their old boxes alike."""
     v, f = random_soup(rng)
     scene = RayScene(v, f)
-    assert embree_direct.available(rays._new_embree_scene)  # the wheel CI installs
+    assert embree_direct.available(embree.new_scene)  # the wheel CI installs
     o, d = random_rays(rng, 2000)
     mesh = scene._mesh
     for _ in range(3):
@@ -258,9 +257,9 @@ def test_bad_ray_input():
 def test_numpy_fallback_gives_the_same_hits(rng, monkeypatch):
     v, f = random_soup(rng, n_tri=100)
     o, d = random_rays(rng, 500)
-    embree = RayScene(v, f).intersect(o, d, max_dist=2.0)
-    monkeypatch.setattr(rays, "HAVE_EMBREE", False)
-    monkeypatch.setattr(rays, "_warned_fallback", False)
+    embree_hits = RayScene(v, f).intersect(o, d, max_dist=2.0)
+    monkeypatch.setattr(embree, "HAVE_EMBREE", False)
+    monkeypatch.setattr(numpy_backend, "warned", False)
     with pytest.warns(RuntimeWarning, match="embreex is not installed"):
         fallback_scene = RayScene(v, f)
     assert fallback_scene.backend == "numpy"
@@ -269,10 +268,10 @@ def test_numpy_fallback_gives_the_same_hits(rng, monkeypatch):
         RayScene(v, f)
     numpy_hits = fallback_scene.intersect(o, d, max_dist=2.0)
     t_ref, f_ref = moller_trumbore(o, d, v, f, 0.0, 2.0)
-    agree = (numpy_hits.face >= 0) == (embree.face >= 0)
+    agree = (numpy_hits.face >= 0) == (embree_hits.face >= 0)
     assert agree.mean() > 0.995
-    both = agree & embree.hit
-    np.testing.assert_allclose(numpy_hits.t[both], embree.t[both], rtol=1e-6, atol=1e-9)
+    both = agree & embree_hits.hit
+    np.testing.assert_allclose(numpy_hits.t[both], embree_hits.t[both], rtol=1e-6, atol=1e-9)
 
 
 @pytest.mark.parametrize("backend", ["embree", "numpy"])
@@ -286,8 +285,8 @@ def test_scaled_rays_measure_in_their_directions_length(rng, monkeypatch, backen
     d = d / np.linalg.norm(d, axis=1, keepdims=True) * length[:, None]
     tmin, tmax = rng.uniform(0.0, 0.5, len(o)), rng.uniform(0.5, 3.0, len(o))
     if backend == "numpy":
-        monkeypatch.setattr(rays, "HAVE_EMBREE", False)
-        monkeypatch.setattr(rays, "_warned_fallback", True)
+        monkeypatch.setattr(embree, "HAVE_EMBREE", False)
+        monkeypatch.setattr(numpy_backend, "warned", True)
     scene = RayScene(v, f)
     assert scene.backend == backend
     got = scene.intersect(o, d, max_dist=tmax / length, min_dist=tmin / length, scaled=True)
@@ -307,8 +306,8 @@ def test_parts_answer_as_brute_force_over_their_faces_and_name_the_whole_scenes_
     if direct == "off":
         monkeypatch.setattr(embree_direct, "_state", "off")
     if direct == "numpy":
-        monkeypatch.setattr(rays, "HAVE_EMBREE", False)
-        monkeypatch.setattr(rays, "_warned_fallback", True)
+        monkeypatch.setattr(embree, "HAVE_EMBREE", False)
+        monkeypatch.setattr(numpy_backend, "warned", True)
     v, f = random_soup(rng, n_tri=900)
     o, d = random_rays(rng, 2000)
     scene = RayScene(v, f)
@@ -350,8 +349,8 @@ def test_a_union_is_occluded_where_brute_force_meets_any_of_its_scenes(rng, monk
     if direct == "off":
         monkeypatch.setattr(embree_direct, "_state", "off")
     if direct == "numpy":
-        monkeypatch.setattr(rays, "HAVE_EMBREE", False)
-        monkeypatch.setattr(rays, "_warned_fallback", True)
+        monkeypatch.setattr(embree, "HAVE_EMBREE", False)
+        monkeypatch.setattr(numpy_backend, "warned", True)
     soups = [random_soup(rng, n_tri=300, offset=off) for off in (0.0, 2.5, -40.0)]
     scenes = [RayScene(v, f) for v, f in soups]
     whole = RayScene(*random_soup(rng, n_tri=400, offset=1.0))

@@ -1,0 +1,46 @@
+"""The per-frame numbers of a baked swim: where in its stroke the bell is (the contraction's
+phase), a slow wobble, the offset along the normals that keeps the bell's volume, and how far it
+has risen, cycle after cycle of the simulated stroke."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import bell3d
+from .bell import phase
+
+
+@dataclass
+class SwimFrame:
+    frame: int
+    tau: float  # where in its cycle, 0..1
+    contraction: float  # the stroke's phase s (0 rest, 1 contracted)
+    wobble: float  # 0..1
+    volume: float  # the volume-keeping offset, in bell thicknesses
+    rise_m: float  # along the axis since frame_start
+
+
+def swim_frames(cycle, creature, frame_start, frame_end, cycle_frames, seed, rest, moved, wobbled, faces, normals,
+                thickness) -> list[SwimFrame]:
+    """One SwimFrame a frame: ``cycle`` the simulated CycleResult, ``creature`` its stroke; the
+    bell's ``rest`` vertices with their ``moved`` (contracted) and ``wobbled`` offsets, its
+    ``faces`` and ``normals``, ``thickness`` the offset's unit (metres, the bell's model units)."""
+    rest_volume = bell3d.volume(rest, faces)
+    speed = cycle.speed
+    times = np.arange(1, len(speed) + 1) / len(speed)
+    travelled = np.concatenate([[0.0], cycle.swum])
+    out = []
+    for frame in range(frame_start, frame_end + 1):
+        cycles, tau = divmod((frame - frame_start) / cycle_frames, 1.0)
+        s = float(phase(tau, creature.contraction))
+        w = 0.5 * (np.sin(2 * np.pi * (frame - frame_start) / (1.7 * cycle_frames) + seed) + 1.0)
+        now = rest + s * moved + w * wobbled
+        offset = bell3d.volume_offset(now, faces, normals, rest_volume) / thickness
+        y = cycles * cycle.path_m + float(np.interp(tau, np.concatenate([[0.0], times]), travelled))
+        out.append(SwimFrame(frame, tau, s, w, offset, y))
+    return out
+
+
+__all__ = ["SwimFrame", "swim_frames"]
