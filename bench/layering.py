@@ -207,7 +207,7 @@ def main(argv=None):
         nothing,
     ])
     if not args.quick:
-        write_section("layering", "Layered garments (core/layering.py)", body_text)
+        write_section("layering", "Layered garments (core/layering)", body_text)
     else:
         print(body_text)
 

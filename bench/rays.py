@@ -202,7 +202,7 @@ def main(argv=None):
     text = "\n".join(body)
     print(text)
     if not args.quick:
-        write_section("rays", "Ray engine (core/rays.py)", text)
+        write_section("rays", "Ray engine (core/rays)", text)
 
 
 if __name__ == "__main__":

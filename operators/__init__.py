@@ -1,1 +1,2 @@
-"""Thin bpy operators: each reads the scene once, calls core, writes once."""
+"""What users run: thin bpy operators over the services in addon/ (each reads the scene once, calls
+core, writes once; ``base`` has what they share), and the command line (``cli``)."""
