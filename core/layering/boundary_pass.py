@@ -64,7 +64,7 @@ def tuck_under_hems(stack, k):
     # layer, the cloth around the hit stays too (else each resolve of the result digs it in further)
     corners = f[face[hit]]
     room = stack.room_of(k, corners).max(1)
-    amp = np.clip(np.minimum(t[hit] + stack.params.gap, room), 0.0, None)
+    amp = np.clip(np.minimum(t[hit] + stack.gap, room), 0.0, None)
     spread = spread_from_hits(v, f, stack.topo[k], o[hit] + n_o[hit] * t[hit, None], amp,
                               corners.ravel(), stack.params.falloff)
     idx = np.flatnonzero(spread > 0)

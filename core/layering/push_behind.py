@@ -14,7 +14,7 @@ def push_behind(stack, k):
     v = stack.verts[k]
     if not len(v):
         return
-    gap, normals = stack.params.gap, stack.normals
+    gap, normals = stack.gap, stack.normals
     # Probes start the gap outside the vertex, so a vertex less than that behind a higher
     # layer is caught too: a hit at t means the layer is (t - gap) behind, and moving by t
     # leaves exactly the gap. Behind the farthest higher layer within reach, not the nearest.

@@ -17,6 +17,7 @@ import trimesh
 
 from .body_facts import body_facts
 from .body_guard import keep_out_of_body
+from .body_lift import lift_off_body
 from .boundary_pass import tuck_under_hems
 from .garment_prep import GarmentPrep
 from .hidden_faces import crossing_faces
@@ -86,6 +87,10 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     timings["correspondence_s"] = time.perf_counter() - t0
 
     stack = LayerStack(facts, bv, garr, prep, p)
+    t0 = time.perf_counter()
+    for k in stack.active:
+        lift_off_body(stack, k, prep.corr[k].distance)
+    timings["lift_s"] = time.perf_counter() - t0
     _fit_layers(stack, timings)
     t0 = time.perf_counter()
     removed = _hidden_faces(stack) if p.remove_hidden else [np.zeros(len(f), dtype=bool) for f in stack.faces]
@@ -147,12 +152,14 @@ def _stats(stack, prep, reach, removed, timings) -> dict:
         "scheme": p.scheme.name if p.scheme is not None else None,
         "skirts": list(prep.skirts),
         "offset": p.offset,
+        "gap": stack.gap,  # the offset, outward shells and the tessellation allowance
         "probe_distance": reach.per_segment.tolist(),
         "probe_distance_per_vertex": bool(reach.local),
         "rays_boundary": stack.rays["boundary"],
         "rays_push": stack.rays["push"],
         "push_trace_s": stack.push_trace_s,
         "rays_hidden": stack.rays["hidden"],
+        "vertices_lifted_off_body": stack.moved_by["lift"],
         "vertices_moved_boundary": stack.moved_by["boundary"],
         "vertices_moved_push": stack.moved_by["push"],
         "vertices_held_by_body": stack.floor_clamped,

@@ -27,8 +27,11 @@ def test_concentric_noisy_cylinders_stop_crossing():
     res = resolve_layers(body, [shirt, jacket])
     s, j = res.garments
     assert brute_crossings(s.vertices, s.faces, j.vertices, j.faces) == 0
-    # the outer layer never moves; the inner one only moves inward, never into the body
-    assert not res.moved[1].any()
+    # the outer layer only moves outward, where it lay closer to the body than the layers under it
+    # need (lifted off the body, by less than a millimetre); the inner one only moves inward,
+    # never into the body
+    assert (radial(j.vertices) >= radial(jacket.vertices) - 1e-12).all()
+    assert np.linalg.norm(res.moved[1], axis=1).max() < 1e-3
     assert (radial(s.vertices) <= radial(shirt.vertices) + 1e-12).all()
     assert radial(s.vertices).min() > 0.15
     assert np.linalg.norm(res.moved[0], axis=1).max() < 0.05
@@ -162,7 +165,9 @@ def test_a_hem_the_body_holds_a_layer_in_front_of_tucks_nothing_around_it():
     assert res.stats["rays_boundary"] > 0 and res.stats["vertices_held_by_body"] > 0
     assert res.stats["vertices_moved_boundary"] == 0
     again = resolve_layers(body, [mesh(g.vertices, g.faces) for g in res.garments], remove_hidden=False)
-    assert not again.moved[0].any()
+    # (within micrometres: the floor the first resolve held them at was found from a lower bound on
+    # the distance, the second knows it exactly)
+    assert np.linalg.norm(again.moved[0], axis=1).max() < 1e-5
 
 
 def test_a_correspondence_from_another_frame_never_pushes_cloth_into_the_body():
@@ -302,10 +307,10 @@ def test_a_garment_near_no_other_skips_every_stage_and_its_normals_are_found_whe
     band = mesh(jacket.vertices * [1, 1, 0.1] + [0, 0, 3.55], jacket.faces)
     res = resolve_layers(body, [far, shirt, jacket, band])
     assert res.traced == [False, True, True, False] and res.stats["garments_traced"] == 2
-    # the two in the middle resolve as they do alone (the body holds none of their vertices,
-    # where the gap a layer keeps would follow its place among four)
+    # the two in the middle resolve as they do alone: the room a layer keeps from the body follows
+    # its place among the garments that take part, not among four
     alone = resolve_layers(body, [shirt, jacket])
-    assert res.stats["vertices_held_by_body"] == alone.stats["vertices_held_by_body"] == 0
+    assert res.stats["vertices_held_by_body"] == alone.stats["vertices_held_by_body"]
     for i in (0, 1):
         np.testing.assert_array_equal(res.moved[i + 1], alone.moved[i])
         np.testing.assert_array_equal(res.removed_faces[i + 1], alone.removed_faces[i])
@@ -349,15 +354,16 @@ def test_sleeves_at_other_heights_skip_the_stages_and_change_nothing(monkeypatch
     # the cuff say so before its body points are searched
     assert res.traced == [True, False, True] and res.stats["garments_traced"] == 2
     assert res.found()[1][1] is None and searched == [len(shirt.vertices) + len(jacket.vertices)]
-    # the same as tracing every garment through every stage
+    # the cuff changes nothing: the others resolve as they do without it
+    without = resolve_layers(body, [shirt, jacket])
+    for a, b in zip([res.moved[0], res.moved[2]], without.moved, strict=True):
+        np.testing.assert_array_equal(a, b)
+    for a, b in zip([res.removed_faces[0], res.removed_faces[2]], without.removed_faces, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert not res.moved[1].any() and not res.removed_faces[1].any() and res.moved[0].any()
     monkeypatch.setattr(prep, "near_another", lambda garr, grow: [True] * len(garr))
     every = resolve_layers(body, garments)
     assert every.traced == [True, True, True]
-    for a, b in zip(res.moved, every.moved, strict=True):
-        np.testing.assert_array_equal(a, b)
-    for a, b in zip(res.removed_faces, every.removed_faces, strict=True):
-        np.testing.assert_array_equal(a, b)
-    assert not res.moved[1].any() and res.moved[0].any()
     # and what is found for the cuff when asked is what the search gives it
     np.testing.assert_array_equal(res.global_normals[1], every.global_normals[1])
     np.testing.assert_array_equal(res.correspondence[1].triangle, every.correspondence[1].triangle)

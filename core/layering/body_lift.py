@@ -1,0 +1,39 @@
+"""Lifting cloth off the body: garments fitted one at a time to a body often lie on its skin or
+inside it (a tight top, leggings under jeans). There the skin shows through, and a lower layer
+has no room to go behind a higher one. Each layer is first lifted along its global normals to its
+floor (LayerStack.floor: the lowest layer nearest the body), so the stages that follow find room."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry.normals import vertex_normals
+
+# A garment with thickness (two shells, as Solidify makes) has about half of its surface facing the
+# body; one cloth surface has a few folds and collars that do. Above this share it is shelled.
+_SHELLED = 0.3
+
+
+def lift_off_body(stack, k, distance) -> None:
+    """Lift layer k of the LayerStack where it lies under its floor or inside the body; ``distance``:
+    each vertex's distance from its nearest body point (the way out, when inside). Left as they are:
+    vertices farther from their body point than their probe reaches (cloth that has slid away from
+    where the body point was found: no distance to trust), and the inner shell of a garment with
+    thickness (facing the body, behind its outer one)."""
+    floor = stack.floor(k)
+    clearance = stack.clearance[k]
+    inside = np.isinf(clearance)
+    lift = np.where(inside, distance + floor, np.maximum(floor - clearance, 0.0))
+    lift[distance > stack.probe_len[k]] = 0.0
+    facing_in = np.einsum("ij,ij->i", vertex_normals(stack.verts[k], stack.faces[k]), stack.normals[k]) < 0
+    if facing_in.mean() > _SHELLED:
+        lift[facing_in] = 0.0
+    lifted = lift > 0
+    if not lifted.any():
+        return
+    out = stack.verts[k].copy()
+    out[lifted] += stack.normals[k][lifted] * lift[lifted, None]
+    clearance[lifted] = floor
+    stack.moved(k, out)
+    stack.rest[k] = out  # what the body guard takes moves back to: the stages' moves, not the lift
+    stack.moved_by["lift"] += int(lifted.sum())
