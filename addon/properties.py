@@ -112,6 +112,13 @@ class DeformRTSceneProperties(bpy.types.PropertyGroup):
         description="Leave out triangles that still cross a higher layer after the move (thesis Fig. 4.14)",
         default=True,
     )
+    hide_covered_skin: BoolProperty(
+        name="Hide Covered Skin",
+        description="Leave out the body's faces that garments cover all over, so skin that pokes through a "
+                    "tight garment does not show (non-destructive, as MakeHuman's delete groups; off leaves the "
+                    "body as it is)",
+        default=True,
+    )
     render_layered: BoolProperty(
         name="Layered",
         description="DeformRT Layered render: skip hits on a garment that a higher layer covers (off: plain ray "

@@ -15,6 +15,8 @@ import trimesh
 from ...core.geometry.cache import Cache
 from ...core.geometry.vectors import cross, norms, rows
 from ...core.layering import metrics
+from ...core.layering.body_facts import body_facts
+from ...core.layering.covered_skin import covered_faces
 from ...core.layering.resolve import resolve_layers
 from ...core.layering.segmentation import get_scheme, part_of_group, segments_from_groups
 from ..io import mesh_io
@@ -45,12 +47,14 @@ class ResolveSummary:
     inward: list = field(default_factory=list)  # garments whose faces mostly face the body
     probe_by_part: dict = field(default_factory=dict)  # l_s the resolve used, scene units
     alone: list = field(default_factory=list)  # garments near no other, left as they were
+    skin_hidden: int = 0  # body faces under cloth left out (Hide Covered Skin)
 
     def message(self) -> str:
         moved = max(self.max_move, default=0.0)
         alone = f"; near no other garment, left as fitted: {', '.join(self.alone)}" if self.alone else ""
+        skin = f", {self.skin_hidden} covered skin faces hidden" if self.skin_hidden else ""
         return (f"Resolved {len(self.garments)} garments on {self.body} in {self.seconds['total_s']:.2f} s: "
-                f"max move {moved * 1000:.1f} mm, {sum(self.faces_hidden)} faces hidden "
+                f"max move {moved * 1000:.1f} mm, {sum(self.faces_hidden)} faces hidden{skin} "
                 f"(parts: {self.parts_source}){alone}")
 
     def report(self) -> LayersReport:
@@ -189,7 +193,9 @@ def read_meshes(objs, depsgraph):
 def read_scene(scene, scheme_name):
     """Evaluated body and garments (world space) without any earlier result applied."""
     body, garments = layered_objects(scene)
-    with fitted_cages(garments):
+    # the body too, up to where its own result (covered skin) goes: a subdivided body is smoothed
+    # inside its cage, so cloth clear of the cage is clear of what renders
+    with fitted_cages([body, *garments]):
         depsgraph = bpy.context.evaluated_depsgraph_get()
         arrays = read_meshes([body, *garments], depsgraph)
         parts, source = body_parts(body, scheme_name, arrays[0].vertices)
@@ -250,6 +256,8 @@ class ResolveJob:
     scheme: str
     parts_known: bool
     made_for: list  # per garment, what its result is made for (staleness.fingerprint)
+    hide_skin: bool = False
+    body_made_for: str = ""
 
 
 def prepare_resolve(scene, reuse_correspondence=False) -> ResolveJob:
@@ -285,12 +293,33 @@ def prepare_resolve(scene, reuse_correspondence=False) -> ResolveJob:
         params["correspondence"] = _correspondence_cache.get(key)
     made_for = [staleness.fingerprint(g, body) for g in garments]
     return ResolveJob(body, garments, arrays, params, source, key, reuse_correspondence,
-                      time.perf_counter() - t0, t0, settings.scheme, parts is not None, made_for)
+                      time.perf_counter() - t0, t0, settings.scheme, parts is not None, made_for,
+                      settings.hide_covered_skin, staleness.fingerprint(body, body))
 
 
 def compute_resolve(job: ResolveJob):
     """The core resolve: no bpy, safe to run on a worker thread."""
     return resolve_layers(_trimesh(job.arrays[0]), [_trimesh(a) for a in job.arrays[1:]], **job.params)
+
+
+def _write_covered_skin(scene, job: ResolveJob, result) -> int:
+    """With Hide Covered Skin, the body's faces the garments cover all over are left out by a
+    result of the body's own (no moves); without, the body shows whole. Returns how many."""
+    body, a = job.body, job.arrays[0]
+    if not job.hide_skin:
+        results.clear(body)
+        return 0
+    worn = [(g.vertices, g.faces) for g in result.garments]
+    # cloth up to half the body's thickness out, or the gap between layers in, covers the skin; the
+    # skin within 1% of the body's size (2 cm on a person) of where it does not stays
+    facts = body_facts(a.vertices, a.triangles)
+    size = float(np.linalg.norm(np.ptp(a.vertices, axis=0)))
+    covered = covered_faces(a.vertices, a.triangles, worn, 0.5 * facts.radius, result.stats["gap"], 0.01 * size)
+    hidden = np.ones(a.n_polygons, dtype=bool)  # a polygon goes when every triangle of it is covered
+    np.logical_and.at(hidden, a.triangle_polygon, covered)
+    hidden &= np.bincount(a.triangle_polygon, minlength=a.n_polygons) > 0
+    results.write(scene, body, np.zeros((len(a.vertices), 3)), hidden, made_for=job.body_made_for)
+    return int(hidden.sum())
 
 
 def finish_resolve(scene, job: ResolveJob, result) -> ResolveSummary:
@@ -312,6 +341,7 @@ def finish_resolve(scene, job: ResolveJob, result) -> ResolveSummary:
         hidden[a.triangle_polygon[removed]] = True
         faces_hidden.append(int(hidden.sum()))
         results.write(scene, obj, moved @ to_local.T, hidden, made_for=made_for)
+    skin_hidden = _write_covered_skin(scene, job, result)
     write_s = time.perf_counter() - t1
     st = result.stats
     inward = []
@@ -327,7 +357,8 @@ def finish_resolve(scene, job: ResolveJob, result) -> ResolveSummary:
                              [float(norms(m).max(initial=0.0)) for m in result.moved], faces_hidden,
                              {"read_s": job.read_s, "resolve_s": st["total_s"], "write_s": write_s,
                               "total_s": time.perf_counter() - job.t0}, inward,
-                             alone=[g.name for g, t in zip(garments, result.traced, strict=True) if not t])
+                             alone=[g.name for g, t in zip(garments, result.traced, strict=True) if not t],
+                             skin_hidden=skin_hidden)
     if job.parts_known:
         summary.probe_by_part = dict(zip(get_scheme(job.scheme).parts, st["probe_distance"], strict=True))
     return summary

@@ -109,7 +109,7 @@ def fingerprint(garment, body) -> str:
         relative = np.linalg.inv(np.array(body.matrix_world)) @ np.array(garment.matrix_world)
         placed = relative[:3].ravel().tolist()
     return json.dumps({"garment": _object_print(garment, result_stack.before_result(garment)),
-                       "body": _object_print(body, body.modifiers), "placed": placed})
+                       "body": _object_print(body, result_stack.user_modifiers(body)), "placed": placed})
 
 
 def _differences(then: dict, now: dict, garment, body) -> str | None:
@@ -161,9 +161,10 @@ def mark(garment, reason: str) -> None:
 
 
 def stale_garments(scene) -> list:
-    """(garment, reason) for every garment of the scene whose result was marked stale."""
+    """(object, reason) for every garment (or body, for its covered skin) of the scene whose result
+    was marked stale."""
     out = []
-    for obj in scene_roles.garments(scene):
+    for obj in scene_roles.garments(scene) + scene_roles.bodies(scene):
         data = results.data_object(obj)
         if data is not None and data.get(results.STALE_PROPERTY):
             out.append((obj, data[results.STALE_PROPERTY]))
@@ -173,7 +174,7 @@ def stale_garments(scene) -> list:
 def check_scene(scene) -> list:
     """Look at every result of the scene now, mark the stale ones; returns (garment, reason)."""
     bodies = scene_roles.bodies(scene)
-    for garment in scene_roles.garments(scene):
+    for garment in scene_roles.garments(scene) + bodies:
         if results.data_object(garment) is None:
             continue
         reason = why_stale(garment, bodies[0]) if len(bodies) == 1 else "the scene has no single body"
@@ -193,7 +194,8 @@ def _watched(scene) -> set:
 
 def touched(scene, depsgraph) -> bool:
     """Whether this update changed a body or a garment that has a result (not while marking)."""
-    if _checking or not any(results.data_object(o) is not None for o in scene_roles.garments(scene)):
+    if _checking or not any(results.data_object(o) is not None
+                            for o in scene_roles.garments(scene) + scene_roles.bodies(scene)):
         return False
     return bool({u.id.original for u in depsgraph.updates} & _watched(scene))
 

@@ -89,6 +89,7 @@ class DEFORMRT_PT_resolve(bpy.types.Panel):
         layout.prop(settings, "boundary_pass")
         layout.prop(settings, "body_guard")
         layout.prop(settings, "remove_hidden")
+        layout.prop(settings, "hide_covered_skin")
         col = layout.column(align=True)
         col.scale_y = 1.3
         col.operator("deformrt.resolve_layers", icon="MOD_CLOTH")

@@ -199,3 +199,44 @@ def test_with_resolve_on_frame_change_an_edit_is_resolved_again(extension, tubes
     after = rendered_meshes(bpy.context.scene)
     assert overlapping_pairs(after["Shirt"], after["Jacket"]) == 0
     bpy.context.scene.deformrt.resolve_on_frame_change = False
+
+
+def _tight_outfit(extension):
+    """A capped body and two coarse tight sleeves that dip a few millimetres into it."""
+    shapes, io = sub(extension, "sample_scenes.shapes"), sub(extension, "addon.io.mesh_io")
+    col = bpy.context.scene.collection
+    body = io.new_mesh_object("Body", *shapes.tube(0.15, 0.0, 0.6, n_around=64, n_along=32, capped=True), col)
+    body.deformrt.role, body.deformrt.layer = "BODY", 0
+    made = []
+    for layer, (name, radius, seed) in enumerate((("Leggings", 0.1495, 1), ("Top", 0.1505, 2)), start=1):
+        v, f = shapes.tube(radius, 0.05 * layer, 0.55, n_around=20, n_along=12, noise=0.004,
+                           rng=np.random.default_rng(seed))
+        obj = io.new_mesh_object(name, v, f, col)
+        obj.deformrt.role, obj.deformrt.layer = "GARMENT", layer
+        made.append(obj)
+    sub(extension, "sample_scenes.studio").camera_and_lights(bpy.context.scene, target=(0.0, 0.0, 0.3), distance=1.3)
+    return body, made
+
+
+def _skin_through(extension, meshes):
+    """Share of covered pixels where the body is seen in front of a garment within 2 cm."""
+    metrics = sub(extension, "core.layering.metrics")
+    layers = [meshes[n] for n in ("Body", "Leggings", "Top")]
+    cams = metrics.camera_ring(*metrics.layer_bounds(layers), views=8, resolution=96)
+    return metrics.poke_through(layers, cameras=cams, depth=0.02)[0]
+
+
+def test_skin_covered_by_tight_garments_is_hidden_in_what_renders_and_off_leaves_the_body(extension, clean_scene):
+    body, garments = _tight_outfit(extension)
+    faces = len(body.data.polygons)
+    before = rendered_meshes(bpy.context.scene)
+    assert _skin_through(extension, before) > 0.01
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    after = rendered_meshes(bpy.context.scene)
+    assert _skin_through(extension, after) < 0.001
+    assert len(after["Body"][1]) < len(before["Body"][1])  # skin under the cloth left out ...
+    assert len(body.data.polygons) == faces  # ... by a modifier: the body's mesh keeps every face
+    bpy.context.scene.deformrt.hide_covered_skin = False
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    assert not body.modifiers
+    np.testing.assert_array_equal(rendered_meshes(bpy.context.scene)["Body"][1], before["Body"][1])

@@ -1,0 +1,54 @@
+"""Skin under cloth: the body's faces that garments cover all over. MakeHuman hides such faces with
+a garment's delete group so skin never pokes through a tight garment; here they are found from
+the garments as worn, for a non-destructive mask."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry.normals import vertex_normals
+from ..geometry.topology import path_distance, topology_of
+from ..geometry.vectors import cross, unit
+from ..rays.scene import RayScene
+
+
+def covered_faces(body_vertices, body_faces, garments, reach_out, reach_in, margin=0.0) -> np.ndarray:
+    """Per body face, whether cloth lies over every point of it: along the body's normal from each
+    corner and from its centre, a garment triangle (either side facing) within ``reach_out``
+    outward or ``reach_in`` inward (cloth a little inside the skin). ``garments``: (vertices,
+    faces) pairs; ``reach_out`` a distance or one per body vertex (the centre takes its corners'
+    smallest). A face at a hem, under a neckline or a sleeve's opening has a point with no
+    cloth over it and is kept, and so is every face within ``margin`` of one over the body's
+    surface: looking into a sleeve, the skin just inside its opening shows."""
+    bv = np.asarray(body_vertices, dtype=np.float64)
+    bf = np.asarray(body_faces, dtype=np.int64)
+    out = np.zeros(len(bf), dtype=bool)
+    garments = [(np.asarray(v, float), np.asarray(f, np.int64)) for v, f in garments if len(f)]
+    if not len(bf) or not garments:
+        return out
+    offsets = np.cumsum([0] + [len(v) for v, _ in garments])
+    cloth = RayScene(np.vstack([v for v, _ in garments]),
+                     np.vstack([f + o for (_, f), o in zip(garments, offsets[:-1], strict=True)]))
+    reach_v = np.broadcast_to(np.asarray(reach_out, dtype=np.float64), (len(bv),))
+    a, b, c = (bv[bf[:, k]] for k in range(3))
+    points = np.vstack([bv, (a + b + c) / 3.0])
+    normals = np.vstack([vertex_normals(bv, bf), unit(cross(b - a, c - a))])
+    reach = np.concatenate([reach_v, reach_v[bf].min(axis=1)])
+    ok = np.linalg.norm(normals, axis=1) > 0
+    over = np.zeros(len(points), dtype=bool)
+    # from a little inside the skin outward: cloth inside it by up to reach_in counts too
+    start = points[ok] - normals[ok] * reach_in
+    over[ok] = cloth.occluded(start, normals[ok], max_dist=reach[ok] + reach_in)
+    n_v = len(bv)
+    covered = over[bf].all(axis=1) & over[n_v:]
+    if margin > 0 and not covered.all():
+        topo = topology_of(bf, n_v)
+        e = topo.edges
+        lengths = np.linalg.norm(bv[e[:, 0]] - bv[e[:, 1]], axis=1)[topo.adjacency_edge]
+        open_skin = np.unique(bf[~covered])
+        near = path_distance(topo.adjacency, lengths, open_skin, margin) <= margin
+        covered &= ~near[bf].any(axis=1)
+    return covered
+
+
+__all__ = ["covered_faces"]
