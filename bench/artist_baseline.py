@@ -20,7 +20,7 @@ import numpy as np
 
 from bench.blender import load_package
 from bench.report import machine, table, write_section
-from core import metrics
+from core.layering import metrics
 from core.geometry.normals import vertex_normals
 from core.rays import RayScene
 

@@ -31,7 +31,7 @@ def measure(frames, samples, size, runs):
     """{samples: [(uncorrected render s, correction s, corrected render s), ...]} over frames x runs,
     and the cloth solver's seconds per frame (its bake)."""
     import bpy
-    from deformrt.addon import frame_handler, layer_resolve
+    from deformrt.addon.layers import frame_handler, layer_resolve
     from deformrt.sample_scenes import sheets
 
     made, _ = sheets.build(layers=4, per_sheet=8192, frames=max(frames))

@@ -22,8 +22,8 @@ DEPTH = 0.05
 
 
 def run(frames, probes, measured):
-    from deformrt.addon import frame_handler, layer_resolve
-    from deformrt.core import metrics
+    from deformrt.addon.layers import frame_handler, layer_resolve
+    from deformrt.core.layering import metrics
 
     made, scene, _ = baked_sheets(4, 8192, frames)
     default = scene.deformrt.probe_distance

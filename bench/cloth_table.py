@@ -37,7 +37,8 @@ def corrected_frame(scene, made):
     """The sheets of the current frame as simulated, then corrected through the frame handler's
     path: (before, after, the resolve's summary, seconds the correction took)."""
     import bpy
-    from deformrt.addon import frame_handler, layer_resolve, mesh_io
+    from deformrt.addon.io import mesh_io
+    from deformrt.addon.layers import frame_handler, layer_resolve
 
     with layer_resolve.results_bypassed(made):
         depsgraph = bpy.context.evaluated_depsgraph_get()
@@ -52,15 +53,16 @@ def corrected_frame(scene, made):
 def release(scene):
     """Take DeformRT's results off the scene and free the cloth bake."""
     import bpy
-    from deformrt.addon import layer_resolve
+    from deformrt.addon.layers import layer_resolve
 
     layer_resolve.clear_scene(scene)
     bpy.ops.ptcache.free_bake_all()
 
 
 def run_case(layers, per_sheet, frames):
-    from deformrt.addon import layer_resolve, mesh_io
-    from deformrt.core import metrics
+    from deformrt.addon.io import mesh_io
+    from deformrt.addon.layers import layer_resolve
+    from deformrt.core.layering import metrics
     from deformrt.core.rays import RayScene
 
     made, scene, bake_s = baked_sheets(layers, per_sheet, frames)

@@ -16,7 +16,7 @@ import time
 import numpy as np
 
 from bench.report import machine, table, write_section
-from core import metrics
+from core.layering import metrics
 from core.geometry.normals import vertex_normals
 from core.layering import resolve_layers
 from core.layering.body_facts import forget_garments

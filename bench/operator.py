@@ -13,7 +13,7 @@ import numpy as np
 
 from bench.blender import load_package
 from bench.report import machine, table, write_section
-from core import metrics
+from core.layering import metrics
 
 SCENES = ("fig_4_12", "fig_4_13")
 RUNS = 3

@@ -12,7 +12,7 @@ import numpy as np
 import trimesh
 
 from bench.report import machine, table, write_section
-from core import embree_direct
+from core.rays import embree_direct
 from core.geometry.parallel import map_chunks
 from core.rays import RayScene
 from core.rays.embree import MIN_RAYS_PER_CHUNK, float32_dist
