@@ -20,8 +20,8 @@ import numpy as np
 
 from bench.blender import load_package
 from bench.report import machine, table, write_section
-from core.layering import metrics
 from core.geometry.normals import vertex_normals
+from core.layering import metrics
 from core.rays import RayScene
 
 SCENES = ("fig_4_12", "fig_4_13")

@@ -19,9 +19,8 @@ import trimesh
 from bench.blender import load_package
 from bench.layering import HEADER, measure, naive_shrink, row
 from bench.report import machine, table, write_section
-from core.layering import metrics
 from core.geometry.normals import vertex_normals
-from core.layering import resolve_layers
+from core.layering import metrics, resolve_layers
 from core.layering.body_facts import forget_garments
 
 

@@ -16,9 +16,8 @@ import time
 import numpy as np
 
 from bench.report import machine, table, write_section
-from core.layering import metrics
 from core.geometry.normals import vertex_normals
-from core.layering import resolve_layers
+from core.layering import metrics, resolve_layers
 from core.layering.body_facts import forget_garments
 from tests.core.layered_cases import body_tube, mesh, noisy_sleeves
 

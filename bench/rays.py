@@ -12,9 +12,8 @@ import numpy as np
 import trimesh
 
 from bench.report import machine, table, write_section
-from core.rays import embree_direct
 from core.geometry.parallel import map_chunks
-from core.rays import RayScene
+from core.rays import RayScene, embree_direct
 from core.rays.embree import MIN_RAYS_PER_CHUNK, float32_dist
 from tests.core.brute import moller_trumbore
 
