@@ -1,6 +1,6 @@
 """Every bundled scene by name: what builds it and what it holds (used by ``deformrt scenes``)."""
 
-from . import dressed, sea, sheets, tubes
+from . import dressed, makehuman, sea, sheets, tubes
 
 SCENES = {
     "tubes": (lambda seed: tubes.build(seed=seed), "Capped-cylinder body, two noisy sleeves: the smallest case."),
@@ -8,6 +8,9 @@ SCENES = {
                  "Thesis run (a), Fig. 4.12: wooden mannequin + jumpsuit + pants + two shirts, ~250k triangles."),
     "fig_4_13": (lambda seed: dressed.fig_4_13(seed=seed),
                  "Thesis run (b), Fig. 4.13: Skin-modifier figure + pants + shirt + two dresses, ~121k triangles."),
+    "makehuman": (lambda seed: makehuman.build(seed=seed),
+                  "A real outfit: MakeHuman's CC0 sports suit under its casual suit on its default female body, "
+                  "each fitted alone; Subdivision 1/2 on every mesh."),
     "posed": (lambda seed: dressed.posed(seed=seed),
               "Thesis run (c): wooden mannequin in T-shirt, pants and jacket; frame 1 rest, frame 2 posed."),
     "sheets": (lambda seed: sheets.build(layers=4, per_sheet=2048, seed=seed),

@@ -15,7 +15,6 @@ import trimesh
 from ...core.geometry.cache import Cache
 from ...core.geometry.vectors import cross, norms, rows
 from ...core.layering import metrics
-from ...core.layering.body_facts import body_facts
 from ...core.layering.covered_skin import covered_faces
 from ...core.layering.resolve import resolve_layers
 from ...core.layering.segmentation import get_scheme, part_of_group, segments_from_groups
@@ -310,11 +309,12 @@ def _write_covered_skin(scene, job: ResolveJob, result) -> int:
         results.clear(body)
         return 0
     worn = [(g.vertices, g.faces) for g in result.garments]
-    # cloth up to half the body's thickness out, or the gap between layers in, covers the skin; the
-    # skin within 1% of the body's size (2 cm on a person) of where it does not stays
-    facts = body_facts(a.vertices, a.triangles)
+    # skin can only show through cloth that lies close on it: within three gaps between layers out,
+    # or one in (under a collar that stands off the neck the skin stays, else one sees into the
+    # garment); and the skin within 1% of the body's size (2 cm on a person) of an opening stays
+    gap = result.stats["gap"]
     size = float(np.linalg.norm(np.ptp(a.vertices, axis=0)))
-    covered = covered_faces(a.vertices, a.triangles, worn, 0.5 * facts.radius, result.stats["gap"], 0.01 * size)
+    covered = covered_faces(a.vertices, a.triangles, worn, 3.0 * gap, gap, 0.01 * size)
     hidden = np.ones(a.n_polygons, dtype=bool)  # a polygon goes when every triangle of it is covered
     np.logical_and.at(hidden, a.triangle_polygon, covered)
     hidden &= np.bincount(a.triangle_polygon, minlength=a.n_polygons) > 0

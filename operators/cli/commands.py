@@ -43,7 +43,7 @@ def _cmd_info(_args) -> int:
     return 0
 
 
-DEMO_SCENES = ("fig_4_12", "fig_4_13", "tubes")
+DEMO_SCENES = ("fig_4_12", "fig_4_13", "tubes", "makehuman")
 
 
 def _cmd_demo(args) -> int:
