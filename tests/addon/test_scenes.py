@@ -163,7 +163,8 @@ def test_the_makehuman_outfit_is_the_cc0_data_and_resolves_clean(ext):
     makehuman = sub(ext, "sample_scenes.makehuman")
     body, garments = makehuman.build()
     assert (len(body.data.vertices), sum(len(p.vertices) - 2 for p in body.data.polygons)) == (13380, 26756)
-    for obj, stem in ((body, "body_female"), *zip(garments, ("female_sportsuit01", "female_casualsuit01"))):
+    stems = ("body_female", "female_sportsuit01", "female_casualsuit01")
+    for obj, stem in zip((body, *garments), stems, strict=True):
         shipped = np.load(makehuman.ASSETS / f"{stem}.npz")["vertices"]
         co = np.empty(len(obj.data.vertices) * 3, np.float32)
         obj.data.vertices.foreach_get("co", co)
