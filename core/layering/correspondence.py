@@ -12,6 +12,11 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
+try:
+    import fcpw as _fcpw  # exact closest points (a BVH): bundled with the extension
+except ImportError:  # pragma: no cover - the candidate search below stands in, nearly exact
+    _fcpw = None
+
 from ..geometry.normals import vertex_normals
 from ..geometry.parallel import map_chunks
 from ..geometry.topology import used_vertices
@@ -125,6 +130,7 @@ class SurfaceSearch(NamedTuple):
     big: np.ndarray  # triangles far larger than most, asked by every point their box is near
     big_box: np.ndarray  # (2, len(big), 3) float32 boxes about ``centre``
     exact: np.ndarray  # float64 triangle_table, in place: the pick solved again
+    bvh: object = None  # fcpw's scene over the triangles (float32 about ``centre``), when installed
 
 
 # Points per piece of the candidates' test: about 2 MB of float32 temporaries, what one core's
@@ -151,7 +157,35 @@ def surface_search(vertices, faces, ring_width: int = 8) -> SurfaceSearch:
     big = np.flatnonzero(longest > _BIG * np.median(longest)) if len(faces) else np.zeros(0, np.int64)
     big_box = np.stack([tri[big].min(1), tri[big].max(1)]).astype(np.float32)
     exact = triangle_table(*(rows(vertices, faces[:, k]) for k in range(3)))
-    return SurfaceSearch(cKDTree(vertices[ids]), ids, incident, table, centre, big, big_box, exact)
+    return SurfaceSearch(cKDTree(vertices[ids]), ids, incident, table, centre, big, big_box, exact,
+                         _bvh(vertices - centre, faces))
+
+
+def _bvh(vertices, faces):
+    """fcpw's BVH over the triangles, or None (no fcpw, or nothing to build)."""
+    if _fcpw is None or not len(faces):
+        return None
+    scene = _fcpw.scene_3D()
+    scene.set_object_count(1)
+    scene.set_object_vertices(np.asfortranarray(vertices, dtype=np.float32), 0)
+    scene.set_object_triangles(np.asfortranarray(faces, dtype=np.int32), 0)
+    scene.build(_fcpw.aggregate_type.bvh_surface_area, True)
+    return scene
+
+
+def _exact_picks(search, points) -> np.ndarray:
+    """The nearest triangle of each point by fcpw's BVH traversal: exact up to float32 about the
+    surface's centre (two triangles nearer to a point than that apart are either answer)."""
+    out = np.empty(len(points), dtype=np.int64)
+
+    def run(sl):
+        found = _fcpw.interaction_3D_list()
+        query = np.asfortranarray(points[sl] - search.centre, dtype=np.float32)
+        search.bvh.find_closest_points(query, np.full(len(query), np.inf, dtype=np.float32), found)
+        out[sl] = np.fromiter((i.primitive_index for i in found), np.int64, len(found))
+
+    map_chunks(run, len(points), 16384)
+    return out
 
 
 def _nearer_big(points32, best_d2, search, block: int = 512):
@@ -186,7 +220,8 @@ def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
                        chunk: int = 4096, search: SurfaceSearch | None = None, near=None) -> BodyCorrespondence:
     """Nearest point on a triangle surface for each point.
 
-    Candidates are the triangles around the ``k`` nearest vertices (a kd-tree), which
+    With fcpw (bundled) the nearest triangle is found exactly by its BVH. Without, candidates
+    are the triangles around the ``k`` nearest vertices (a kd-tree), which
     contains the true nearest triangle whenever it has a vertex among them: always, for
     surfaces whose triangles are small against the distance to the points' neighbours.
     Triangles far larger than most (a floor, a box's faces), which a point can be nearest to
@@ -200,15 +235,24 @@ def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
         return BodyCorrespondence(np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0))
     if search is None or search.incident.shape[1] != ring_width:
         search = surface_search(vertices, faces, ring_width)
-    if near is None:
-        _, near = search.tree.query(points, k=min(k, search.tree.n), workers=-1)
-    near = np.asarray(near).reshape(n, -1)
     best_t = np.zeros(n, dtype=np.int64)
     best_w = np.zeros((n, 3))
     best_d = np.zeros(n)
-    points32 = (points - search.centre).astype(np.float32)
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
+    if search.bvh is not None:
+        picks = _exact_picks(search, points)
+
+        def solve(sl):  # the pick solved again in float64
+            best_w[sl] = closest_on_table(points[sl], rows(search.exact, picks[sl]))[1]
+            best_d[sl] = norms(points[sl] - np.einsum("ij,ijk->ik", best_w[sl], rows(vertices, rows(faces, picks[sl]))))
+
+        map_chunks(solve, n, chunk, block=_SEARCH_BLOCK)
+        return BodyCorrespondence(picks, best_w, best_d)
+    if near is None:
+        _, near = search.tree.query(points, k=min(k, search.tree.n), workers=-1)
+    near = np.asarray(near).reshape(n, -1)
+    points32 = (points - search.centre).astype(np.float32)
 
     def run(sl):
         cand = rows(search.incident, near[sl]).reshape(sl.stop - sl.start, -1)  # (c, k * width), -1 padded

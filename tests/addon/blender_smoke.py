@@ -62,6 +62,10 @@ def main(zip_path: str) -> int:
     module = f"bl_ext.{REPO}.deformrt"
     assert module in bpy.context.preferences.addons, "installed but not enabled"
     ext = sys.modules[module]
+    # every compiled wheel the zip bundles for this Blender's Python was installed and loads
+    correspondence = __import__(f"{module}.core.layering.correspondence", fromlist=["_fcpw"])
+    assert correspondence._fcpw is not None, "fcpw's wheel was not installed: the exact body search is off"
+    import embreex.rtcore_scene  # noqa: F401
     step("install and register")
 
     bpy.ops.wm.read_homefile(use_empty=True)

@@ -65,3 +65,26 @@ def brute_crossings(va, fa, vb, fb):
         _, face = moller_trumbore(v1[e[:, 0]], vec, v2, f2, 0.0, np.linalg.norm(vec, axis=1))
         total += int((face >= 0).sum())
     return total
+
+
+def nearest_distances(points, vertices, faces):
+    """Distance from each point to a triangle surface, every triangle that could be nearest tested:
+    trimesh's query gives a distance to some triangle, an upper bound; every triangle whose centroid
+    lies within that bound plus the largest centroid-to-corner distance is then measured
+    (trimesh.triangles.closest_point, pair by pair) and the least kept."""
+    import trimesh
+    from scipy.spatial import cKDTree
+
+    points = np.asarray(points, float)
+    mesh = trimesh.Trimesh(np.asarray(vertices, float), np.asarray(faces), process=False)
+    _, bound, _ = trimesh.proximity.closest_point(mesh, points)
+    tris = mesh.triangles
+    centroid = tris.mean(axis=1)
+    reach = float(np.linalg.norm(tris - centroid[:, None], axis=2).max())
+    lists = cKDTree(centroid).query_ball_point(points, bound + reach + 1e-12)
+    owner = np.repeat(np.arange(len(points)), [len(c) for c in lists])
+    cand = np.concatenate([np.asarray(c, dtype=np.int64) for c in lists])
+    d = np.linalg.norm(trimesh.triangles.closest_point(tris[cand], points[owner]) - points[owner], axis=1)
+    out = np.full(len(points), np.inf)
+    np.minimum.at(out, owner, d)
+    return out
