@@ -4,17 +4,23 @@ render border's window of pixels."""
 import numpy as np
 
 
+SUPPORTED = ("PERSP", "ORTHO")
+
+
 def _fitted_half(cam, width, height):
-    """(tan of half the field of view across the dimension the sensor fits, whether that is the
-    width) for a width x height image, as Blender fits the sensor."""
-    if cam.type != "PERSP":
-        raise ValueError(f"DeformRT Layered renders perspective cameras only, not {cam.type.lower()}")
+    """(half the view across the dimension the sensor fits, whether that is the width) for a
+    width x height image, as Blender fits the sensor: the tangent of half the field of view for a
+    perspective camera, half the orthographic scale (scene units) for an orthographic one."""
+    if cam.type not in SUPPORTED:
+        raise ValueError(f"DeformRT Layered renders perspective and orthographic cameras, not {cam.type.lower()}: "
+                         "render a panoramic camera with Cycles")
     fit = cam.sensor_fit
     if fit == "AUTO":
         fit = "HORIZONTAL" if width >= height else "VERTICAL"
-        half = cam.sensor_width / (2 * cam.lens)  # AUTO fits the sensor width to the longer side
+        size = cam.sensor_width  # AUTO fits the sensor width (and the orthographic scale) to the longer side
     else:
-        half = (cam.sensor_width if fit == "HORIZONTAL" else cam.sensor_height) / (2 * cam.lens)
+        size = cam.sensor_width if fit == "HORIZONTAL" else cam.sensor_height
+    half = 0.5 * cam.ortho_scale if cam.type == "ORTHO" else size / (2 * cam.lens)
     return half, fit == "HORIZONTAL"
 
 
@@ -22,6 +28,12 @@ def vertical_fov(cam, width, height):
     """The camera's vertical field of view for a width x height image (sensor fit as Blender)."""
     half, horizontal = _fitted_half(cam, width, height)
     return 2 * np.arctan(half * height / width if horizontal else half)
+
+
+def ortho_height(cam, width, height):
+    """The height of an orthographic camera's view in scene units for a width x height image."""
+    half, horizontal = _fitted_half(cam, width, height)
+    return 2 * (half * height / width if horizontal else half)
 
 
 def image_shift(cam, width, height):

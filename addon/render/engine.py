@@ -26,7 +26,7 @@ import numpy as np
 
 from ...core.render.whitted import Image, Surfaces, camera_rays, render
 from ..layers import staleness
-from .camera import image_shift, render_window, vertical_fov
+from .camera import SUPPORTED, image_shift, ortho_height, render_window, vertical_fov
 from .lights import lights, world_colour
 from .scene_reading import PERSISTENT, scene_arrays
 
@@ -38,6 +38,7 @@ FIXED_PASS = "DeformRT Fixed"  # 1 where a probe ray changed what the pixel show
 # near 300 MB and renders 800x800 in one (Cycles' default tile is 2048 x 2048).
 BAND_PIXELS = 1 << 20
 BACKGROUND_DEPTH = 1e10  # what Cycles writes where no surface is
+CAMERA_KINDS = {"PANO": "panoramic", "PERSP": "perspective", "ORTHO": "orthographic"}
 
 
 class FrameTracer:
@@ -59,8 +60,13 @@ class FrameTracer:
         self.surfaces = Surfaces.build(self.scene, materials, slots, uvs, shading)  # once for every band
         self.seconds = {"read_build_s": time.perf_counter() - t0, "trace_s": 0.0}
         m = np.array(scene.camera.matrix_world)
-        self.origins, self.directions = camera_rays(m, vertical_fov(scene.camera.data, width, height), width, height,
-                                                   shift=image_shift(scene.camera.data, width, height))
+        cam = scene.camera.data
+        shift = image_shift(cam, width, height)
+        if cam.type == "ORTHO":
+            self.origins, self.directions = camera_rays(m, None, width, height, shift,
+                                                       ortho_height=ortho_height(cam, width, height))
+        else:
+            self.origins, self.directions = camera_rays(m, vertical_fov(cam, width, height), width, height, shift)
         self.width, self.height = width, height
         if window is not None and tuple(window) != (0, 0, width, height):
             left, top, self.width, self.height = window
@@ -69,7 +75,6 @@ class FrameTracer:
         # distance along the ray -> along the camera's axis, as Cycles writes depth
         self._to_depth = self.directions @ -m[:3, 2] / np.linalg.norm(m[:3, 2])
         # the clipping planes lie at depths along the camera's axis, as Cycles takes them
-        cam = scene.camera.data
         self._clip = (cam.clip_start / self._to_depth, cam.clip_end / self._to_depth)
         self.sky = world_colour(scene.world)
         self.lights = lights(depsgraph, settings.render_area_samples)
@@ -132,8 +137,10 @@ class DEFORMRT_RE_layered(bpy.types.RenderEngine):
         left, bottom_row, bw, bh = render_window(scene.render, w, h)
         self.add_pass(FIXED_PASS, 1, "X")
         cam = scene.camera
-        if cam is None or cam.type != "CAMERA" or cam.data.type != "PERSP":
-            self.report({"ERROR"}, "DeformRT Layered needs a perspective scene camera")
+        if cam is None or cam.type != "CAMERA" or cam.data.type not in SUPPORTED:
+            kind = "no scene camera" if cam is None or cam.type != "CAMERA" else f"a {CAMERA_KINDS.get(cam.data.type, cam.data.type.lower())} camera"
+            self.report({"ERROR"}, f"DeformRT Layered renders perspective and orthographic cameras, the scene has "
+                                   f"{kind}: set one as the scene camera, or render with Cycles")
             self.end_result(self.begin_result(0, 0, w, h))
             return
         self.update_stats("", "DeformRT: reading the scene")

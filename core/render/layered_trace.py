@@ -61,7 +61,7 @@ class LayeredScene:
         # global normal and l_s side by side: a probe blends both from one gather of its corners
         self._stacked_frames = (np.column_stack([self.stack(self.normals), self._stacked_probes])
                                 if len(self._stacked_probes) else np.zeros((0, 4)))
-        counts = np.array([len(f) for f in self.faces])
+        counts = np.array([len(f) for f in self.faces], dtype=np.int64)
         self.first_face = np.concatenate([[0], np.cumsum(counts)])
         all_v = np.vstack(self.vertices) if self.vertices else np.zeros((0, 3))
         all_f = _stack_faces(self.faces, [len(v) for v in self.vertices]) if self.faces else np.zeros((0, 3))

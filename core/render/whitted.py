@@ -65,20 +65,31 @@ class Image:
     stats: dict = field(default_factory=dict)
 
 
-def camera_rays(matrix_world, fov_y, width, height, shift=(0.0, 0.0)):
+def camera_rays(matrix_world, fov_y, width, height, shift=(0.0, 0.0), ortho_height=None):
     """Pinhole rays through pixel centres, rows top to bottom; the camera looks down its -z.
     ``shift``: where the image's centre lies on the image plane at distance 1 (a shifted lens,
-    in the units of tan(fov_y / 2)): the view moves, its perspective stays."""
+    in the units of tan(fov_y / 2)): the view moves, its perspective stays. With
+    ``ortho_height`` (the view's height in the camera's units) the rays are parallel instead,
+    from the camera's plane (``fov_y`` is then unused and ``shift`` is in those units)."""
     m = np.asarray(matrix_world, float)
     if width < 1 or height < 1:
         raise ValueError(f"the image needs at least 1 x 1 pixels, got {width} x {height}")
-    if not (0 < fov_y < np.pi):
+    if ortho_height is not None:
+        if not (np.isfinite(ortho_height) and ortho_height > 0):
+            raise ValueError(f"the orthographic view's height must be > 0, got {ortho_height}")
+        half_h = 0.5 * ortho_height
+    elif not (0 < fov_y < np.pi):
         raise ValueError(f"the vertical field of view must be in (0, pi), got {fov_y}")
-    half_h = np.tan(0.5 * fov_y)
+    else:
+        half_h = np.tan(0.5 * fov_y)
     half_w = half_h * width / height
     x = ((np.arange(width) + 0.5) / width * 2 - 1) * half_w + shift[0]
     y = (1 - (np.arange(height) + 0.5) / height * 2) * half_h + shift[1]
     gx, gy = np.meshgrid(x, y)
+    if ortho_height is not None:
+        plane = np.stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)], 1)
+        axis = -m[:3, 2] / norms(m[:3, 2][None])[0]
+        return plane @ m[:3, :3].T + m[:3, 3], np.broadcast_to(axis, plane.shape).copy()
     local = np.stack([gx.ravel(), gy.ravel(), -np.ones(gx.size)], 1)
     d = local @ m[:3, :3].T
     d /= norms(d)[:, None]

@@ -207,6 +207,43 @@ def test_a_shifted_lens_frames_the_view_as_cycles_does(studio, clean_scene, tmp_
     assert (_render(studio, scene, tmp_path, size=size, passes=("IndexOB",)) != ours).mean() > 0.05
 
 
+@pytest.mark.parametrize("size, fit", [((64, 40), "AUTO"), ((40, 64), "AUTO"), ((64, 40), "VERTICAL")])
+def test_an_orthographic_camera_frames_the_view_as_cycles_does(studio, clean_scene, tmp_path, size, fit):
+    """The same row of spheres, orthographic, its lens shifted: every object where Cycles shows it,
+    and the depth pass the distance from the camera's plane."""
+    scene = _engine(clean_scene)
+    _stage(scene)
+    scene.view_layers[0].use_pass_object_index = True
+    scene.view_layers[0].use_pass_z = True
+    for i, x in enumerate((-1.6, -0.4, 0.8, 2.0)):
+        bpy.ops.mesh.primitive_uv_sphere_add(radius=0.45, location=(x, 0.3 * i - 0.5, 0.0))
+        bpy.context.active_object.pass_index = i + 1
+    cam = scene.camera.data
+    cam.type, cam.ortho_scale, cam.sensor_fit = "ORTHO", 5.0, fit
+    cam.shift_x, cam.shift_y = 0.1, -0.05
+    ours = _render(studio, scene, tmp_path, size=size, passes=("IndexOB", "Depth"))
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples, scene.cycles.filter_width = 1, 0.01
+    cycles = _render(studio, scene, tmp_path, size=size, passes=("IndexOB", "Depth"))
+    assert len(np.unique(cycles["IndexOB"])) >= 4
+    covered = (ours["IndexOB"] > 0) | (cycles["IndexOB"] > 0)
+    assert (ours["IndexOB"][covered] == cycles["IndexOB"][covered]).mean() > 0.97
+    both = (ours["IndexOB"] > 0) & (ours["IndexOB"] == cycles["IndexOB"])
+    np.testing.assert_allclose(ours["Depth"][both], cycles["Depth"][both], atol=0.02)  # faceted spheres
+    assert ours["Depth"][both].min() > 4.5 - 1e-6  # the nearest sphere point lies 4.55 below the camera
+
+
+def test_an_empty_scene_renders_the_world_and_a_panoramic_camera_is_refused(studio, clean_scene, tmp_path):
+    scene = _engine(clean_scene)
+    _stage(scene, sun_strength=1.0)
+    scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.2, 0.3, 0.4, 1)
+    px = _render(studio, scene, tmp_path)
+    np.testing.assert_allclose(px[..., :3], np.broadcast_to([0.2, 0.3, 0.4], px[..., :3].shape), atol=1e-3)
+    scene.camera.data.type = "PANO"
+    with pytest.raises(RuntimeError, match="perspective and orthographic cameras.*panoramic"):
+        _render(studio, scene, tmp_path)
+
+
 def test_a_render_border_renders_its_pixels_of_the_frame(studio, clean_scene, tmp_path):
     """With a render border (Ctrl+B), the frame holds that border's pixels of the full render and
     nothing else, where Cycles writes them; cropped to it, the image is just those pixels."""

@@ -165,6 +165,24 @@ def test_a_shifted_lens_moves_the_view_and_keeps_its_perspective():
     np.testing.assert_array_equal(o, 0.0)
 
 
+def test_orthographic_rays_are_parallel_from_the_camera_s_plane():
+    """A camera turned to look along +x from (1, 2, 3): every ray runs along +x, from a grid of
+    points on the camera's plane spanning the view's height (and its width by the aspect), shifted."""
+    turn = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])  # camera -z -> world +x
+    m = np.eye(4)
+    m[:3, :3], m[:3, 3] = turn, (1.0, 2.0, 3.0)
+    o, d = camera_rays(m, None, 4, 2, shift=(0.5, -0.25), ortho_height=2.0)
+    np.testing.assert_allclose(d, np.tile([1.0, 0.0, 0.0], (8, 1)), atol=1e-15)
+    np.testing.assert_allclose(o[:, 0], 1.0)
+    # pixel centres at x = -1.5 .. 1.5 (the width is twice the height), y = 0.5, -0.5; then shifted
+    local_x = np.tile([-1.5, -0.5, 0.5, 1.5], 2) + 0.5
+    local_y = np.repeat([0.5, -0.5], 4) - 0.25
+    np.testing.assert_allclose(o[:, 1], 2.0 - local_x)
+    np.testing.assert_allclose(o[:, 2], 3.0 + local_y)
+    with pytest.raises(ValueError, match="orthographic"):
+        camera_rays(m, None, 4, 2, ortho_height=0.0)
+
+
 def test_an_object_unseen_by_the_camera_shows_what_is_behind_it_and_still_shadows_it():
     """Rays down through a sheet the camera does not see: they show the floor under it, with no
     pixel marked fixed, in the sheet's shadow (ambient only); a mirror floor still shows it."""
