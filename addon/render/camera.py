@@ -3,7 +3,6 @@ render border's window of pixels."""
 
 import numpy as np
 
-
 SUPPORTED = ("PERSP", "ORTHO")
 
 

@@ -138,7 +138,8 @@ class DEFORMRT_RE_layered(bpy.types.RenderEngine):
         self.add_pass(FIXED_PASS, 1, "X")
         cam = scene.camera
         if cam is None or cam.type != "CAMERA" or cam.data.type not in SUPPORTED:
-            kind = "no scene camera" if cam is None or cam.type != "CAMERA" else f"a {CAMERA_KINDS.get(cam.data.type, cam.data.type.lower())} camera"
+            kind = ("no scene camera" if cam is None or cam.type != "CAMERA"
+                    else f"a {CAMERA_KINDS.get(cam.data.type, cam.data.type.lower())} camera")
             self.report({"ERROR"}, f"DeformRT Layered renders perspective and orthographic cameras, the scene has "
                                    f"{kind}: set one as the scene camera, or render with Cycles")
             self.end_result(self.begin_result(0, 0, w, h))
