@@ -1,5 +1,7 @@
 """Resolve, clear and bake the layered garments of the scene."""
 
+import os
+
 import bpy
 
 from ..addon.io import blender_versions
@@ -230,7 +232,10 @@ class DEFORMRT_OT_bake_frames(_NeedsGarments, DeformRTOperator, bpy.types.Operat
         frame_handler.switch(scene, False)
         frame_handler.switch(scene, True)
         layer_resolve.keep_correspondence(kept)
-        stopped, result = False, None
+        # written beside the target and moved onto it once whole: a stopped or failed bake leaves
+        # no partial cache, and an earlier cache at the path stays as it was
+        partial = (path[:-4] if path.lower().endswith(".abc") else path) + ".deformrt-partial.abc"
+        stopped, result, failure = False, None, "the Alembic export failed"
         try:
             # the exporter steps the frames; the frame handler resolves each before it is written
             scene.frame_set(self.frame_start)
@@ -239,9 +244,12 @@ class DEFORMRT_OT_bake_frames(_NeedsGarments, DeformRTOperator, bpy.types.Operat
             for o in (body, *garments):
                 o.select_set(True)
             export = bpy.ops.wm.alembic_export
-            result = export(**blender_versions.operator_arguments(
-                export, filepath=path, start=self.frame_start, end=self.frame_end, selected=True,
-                visible_objects_only=False, uvs=True, apply_subdiv=True, as_background_job=False))
+            try:
+                result = export(**blender_versions.operator_arguments(
+                    export, filepath=partial, start=self.frame_start, end=self.frame_end, selected=True,
+                    visible_objects_only=False, uvs=True, apply_subdiv=True, as_background_job=False))
+            except RuntimeError as exc:
+                failure = f"the Alembic export failed: {exc}"
             stopped = not settings.resolve_on_frame_change
         finally:
             # back to the frame shown before with the handler off (changing frames with it on
@@ -257,11 +265,14 @@ class DEFORMRT_OT_bake_frames(_NeedsGarments, DeformRTOperator, bpy.types.Operat
             if was_on and not stopped:
                 frame_handler.switch(scene, True)
                 layer_resolve.keep_correspondence(kept)
-        if result != {"FINISHED"} or stopped:
+        if result != {"FINISHED"} or stopped or not os.path.isfile(partial):
+            if os.path.isfile(partial):
+                os.remove(partial)
             last = report.read(scene)
-            self.report({"ERROR"}, "Bake stopped: " + ((last.message if last is not None else "")
-                                                        if stopped else "the Alembic export failed"))
+            self.report({"ERROR"}, "Bake stopped, nothing written: " + (
+                (last.message if last is not None else "") if stopped else failure))
             return {"CANCELLED"}
+        os.replace(partial, path)
         n = self.frame_end - self.frame_start + 1
         self.report({"INFO"}, f"Baked {n} frames of {len(garments)} garments to {path}")
         return {"FINISHED"}

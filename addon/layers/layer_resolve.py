@@ -52,9 +52,11 @@ class ResolveSummary:
         moved = max(self.max_move, default=0.0)
         alone = f"; near no other garment, left as fitted: {', '.join(self.alone)}" if self.alone else ""
         skin = f", {self.skin_hidden} covered skin faces hidden" if self.skin_hidden else ""
+        inside_out = (f"; {self.body}'s faces point inward (flipped, or a negative scale): resolved the right way "
+                      "out" if self.stats.get("body_inside_out") else "")
         return (f"Resolved {len(self.garments)} garments on {self.body} in {self.seconds['total_s']:.2f} s: "
                 f"max move {moved * 1000:.1f} mm, {sum(self.faces_hidden)} faces hidden{skin} "
-                f"(parts: {self.parts_source}){alone}")
+                f"(parts: {self.parts_source}){alone}{inside_out}")
 
     def report(self) -> LayersReport:
         return LayersReport(
@@ -84,6 +86,12 @@ def layered_objects(scene):
                                        and obj.hide_get(view_layer=view_layer))
         if hidden or (view_layer is not None and obj.name not in view_layer.objects):
             raise LayeringInputError(f"{obj.name} is hidden or not in the view layer: show it or clear its role")
+    for obj in [bodies[0], *garments]:
+        linked = obj.library or obj.data.library
+        if linked is not None:
+            # the result is a modifier and data on the object: linked data cannot take them
+            raise LayeringInputError(f"{obj.name} is linked from {linked.filepath}: make a library override of it "
+                                     "(Object > Library Override > Make) or make it local, then resolve")
     layers = [o.deformrt.layer for o in garments]
     for a, b in zip(garments, garments[1:], strict=False):
         if a.deformrt.layer == b.deformrt.layer:
@@ -314,7 +322,8 @@ def _write_covered_skin(scene, job: ResolveJob, result) -> int:
     # garment); and the skin within 1% of the body's size (2 cm on a person) of an opening stays
     gap = result.stats["gap"]
     size = float(np.linalg.norm(np.ptp(a.vertices, axis=0)))
-    covered = covered_faces(a.vertices, a.triangles, worn, 3.0 * gap, gap, 0.01 * size)
+    body_faces = a.triangles[:, ::-1] if result.stats.get("body_inside_out") else a.triangles  # as the resolve took it
+    covered = covered_faces(a.vertices, body_faces, worn, 3.0 * gap, gap, 0.01 * size)
     hidden = np.ones(a.n_polygons, dtype=bool)  # a polygon goes when every triangle of it is covered
     np.logical_and.at(hidden, a.triangle_polygon, covered)
     hidden &= np.bincount(a.triangle_polygon, minlength=a.n_polygons) > 0

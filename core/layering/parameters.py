@@ -16,6 +16,9 @@ KNOWN = frozenset({"offset", "probe_distance", "garment_segments", "global_norma
                    "segment_margin", "outward_shells"})
 
 
+MAX_SEGMENTS = 4096
+
+
 def check_known(params) -> None:
     unknown = set(params) - KNOWN
     if unknown:
@@ -45,6 +48,17 @@ def read_meshes(body, garments):
     if garments is None or isinstance(garments, trimesh.Trimesh):
         raise ValueError("garments must be a list of meshes, inner to outer")
     return bv, bf, [mesh_arrays(g, f"garments[{i}]") for i, g in enumerate(garments)]
+
+
+def inside_out(vertices, faces) -> bool:
+    """Whether a body's faces wind inward (flipped winding, or a mirrored object): its signed
+    volume is negative and large enough to mean it (a twentieth of its box's; an open sheet of a
+    body has next to none and is left as it is). Its normals would point into it, and every
+    garment point would take the far side of the body as its own."""
+    tri = vertices[faces]
+    signed = float(np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum()) / 6.0
+    lo, hi = box(vertices)
+    return signed < -0.05 * float(np.prod(np.maximum(hi - lo, 1e-300)))
 
 
 def _per_garment(value, n, name):
@@ -106,6 +120,9 @@ class LayeringParameters:
         g_corr = _per_garment(params.get("correspondence"), n_g, "correspondence")
         scheme = params.get("scheme")
         n_seg = int(body_seg.max()) + 1
+        if n_seg > MAX_SEGMENTS:  # the part-to-part links are a square table of them
+            raise ValueError(f"body_segments ids go up to {n_seg - 1}: number the body's parts 0..k-1 "
+                             f"(at most {MAX_SEGMENTS} parts)")
         if scheme is not None:
             if body_segments is None:
                 raise ValueError("a segmentation scheme names body part ids: pass body_segments with it")
@@ -141,6 +158,9 @@ class LayeringParameters:
         margin = float(params.get("segment_margin", 0.01 * diag))
         if not np.isfinite(margin) or margin < 0:
             raise ValueError(f"segment_margin must be a finite distance >= 0, got {margin}")
+        falloff = params.get("falloff")
+        if falloff is not None and not (np.isfinite(falloff) and falloff > 0):
+            raise ValueError(f"falloff must be a finite distance > 0 (or None for four edge lengths), got {falloff}")
         for i, (v, _) in enumerate(garr):  # all given inputs checked now: the untraced are prepared later
             c = g_corr[i]
             if c is not None and (len(c.triangle) != len(v) or (len(c.triangle) and c.triangle.max() >= len(bf))):
@@ -157,4 +177,5 @@ class LayeringParameters:
                    segment_margin=margin, diagonal=diag, garment_segments=g_segments, global_normals=g_normals,
                    correspondence=g_corr, boundary_pass=bool(params.get("boundary_pass", True)),
                    push_behind=bool(params.get("push_behind", True)), body_guard=bool(params.get("body_guard", True)),
-                   remove_hidden=bool(params.get("remove_hidden", True)), falloff=params.get("falloff"))
+                   remove_hidden=bool(params.get("remove_hidden", True)),
+                   falloff=None if falloff is None else float(falloff))

@@ -22,7 +22,7 @@ from .boundary_pass import tuck_under_hems
 from .garment_prep import GarmentPrep
 from .hidden_faces import crossing_faces
 from .layer_stack import LayerStack
-from .parameters import LayeringParameters, check_known, read_meshes
+from .parameters import LayeringParameters, check_known, inside_out, read_meshes
 from .probes import probe_reach
 from .push_behind import push_behind
 from .result import LayeringResult
@@ -78,6 +78,9 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     timings = {}
     check_known(params)
     bv, bf, garr = read_meshes(body, garments)
+    flipped = inside_out(bv, bf)
+    if flipped:
+        bf = bf[:, ::-1]  # resolved as the body it is: the result is the same either way
     facts = body_facts(bv, bf)
     p = LayeringParameters.parse(facts, bv, bf, garr, body_segments, params)
 
@@ -104,7 +107,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         out.append(trimesh.Trimesh(stack.verts[i], kept_faces, process=False, validate=False))
     timings["total_s"] = time.perf_counter() - t_start
     return LayeringResult(out, moved, removed, prep.traced, prep.normals, prep.corr, prep.vseg, prep.skirts,
-                          _stats(stack, prep, reach, removed, timings),
+                          {**_stats(stack, prep, reach, removed, timings), "body_inside_out": flipped},
                           prep.complete if len(prep.active) < len(garr) else None)
 
 

@@ -337,6 +337,60 @@ def test_resolve_on_frame_change_follows_the_pose_and_bake_frames_writes_it(exte
         np.testing.assert_allclose(evaluated(imported[g.name])[0], v, atol=1e-5)
 
 
+def test_a_bake_stopped_on_a_frame_leaves_no_partial_cache_and_the_old_one_intact(extension, tubes, tmp_path,
+                                                                                monkeypatch):
+    """A resolve that fails on the third of five frames stops the bake: no file half-written at the
+    path, the earlier cache there byte for byte as it was, and none of DeformRT's partial files."""
+    handler = sub(extension, "addon.layers.frame_handler")
+    path = tmp_path / "layers.abc"
+    assert bpy.ops.deformrt.bake_frames(frame_start=1, frame_end=2, filepath=str(path)) == {"FINISHED"}
+    earlier = path.read_bytes()
+    correct, calls = handler.correct_frame, []
+
+    def failing_on_the_third(scene):
+        calls.append(scene.frame_current)
+        if len(calls) == 3:
+            raise ValueError("a garment lost its faces")
+        return correct(scene)
+
+    monkeypatch.setattr(handler, "correct_frame", failing_on_the_third)
+    with pytest.raises(RuntimeError, match="Bake stopped, nothing written.*lost its faces"):
+        bpy.ops.deformrt.bake_frames(frame_start=1, frame_end=5, filepath=str(path))
+    assert len(calls) == 3 and path.read_bytes() == earlier
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["layers.abc"]
+
+
+def test_a_body_whose_faces_point_inward_is_resolved_as_the_body_it_is(extension, tubes):
+    body, garments = tubes
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    right = [evaluated(o)[0] for o in (body, *garments)]  # the body as it renders: the skin left out
+    assert "point inward" not in bpy.context.scene.deformrt.last_report
+    bpy.ops.deformrt.clear_results()
+    body.data.flip_normals()
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    assert f"{body.name}'s faces point inward" in json.loads(bpy.context.scene.deformrt.last_report)["message"]
+    for o, v in zip((body, *garments), right, strict=True):
+        np.testing.assert_allclose(evaluated(o)[0], v, rtol=0, atol=1e-12)  # its triangles now split otherwise
+
+
+def test_linked_garments_are_refused_by_name_and_nothing_is_added(extension, tubes, tmp_path):
+    """Garments linked from another file (not overridden) cannot take a result: Resolve says which
+    and what to do, and leaves no data behind."""
+    body, garments = tubes
+    library = tmp_path / "wardrobe.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(library))
+    names = [body.name, *(g.name for g in garments)]
+    bpy.ops.wm.read_homefile(use_empty=True)
+    with bpy.data.libraries.load(str(library), link=True) as (src, dst):
+        dst.objects = names
+    for obj in dst.objects:
+        bpy.context.scene.collection.objects.link(obj)
+    counts = (len(bpy.data.objects), len(bpy.data.meshes), len(bpy.data.node_groups))
+    with pytest.raises(RuntimeError, match=r"is linked from .*wardrobe\.blend: make a library override"):
+        bpy.ops.deformrt.resolve_layers()
+    assert (len(bpy.data.objects), len(bpy.data.meshes), len(bpy.data.node_groups)) == counts
+
+
 def test_bake_frames_refuses_an_unsaved_relative_path(extension, tubes):
     with pytest.raises(RuntimeError, match="Save the file first"):
         bpy.ops.deformrt.bake_frames(frame_start=1, frame_end=2, filepath="//layers.abc")
