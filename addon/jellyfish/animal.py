@@ -18,7 +18,7 @@ import numpy as np
 from ...core.jellyfish import bell3d
 from ...core.jellyfish.bell import BellShape, Creature
 from ...core.jellyfish.keyframes import swim_frames
-from ...core.jellyfish.swimming import default_config, default_creature, simulate_cycle
+from ...core.jellyfish.swimming import default_config, default_creature, one_cycle, simulate_cycles
 from ...core.jellyfish.tentacle_drift import water_drift
 from ..io import blender_versions
 from ..io.mesh_io import fill_mesh
@@ -27,6 +27,7 @@ PROP_MODEL, PROP_STROKE = "deformrt_jellyfish_model", "deformrt_jellyfish_stroke
 KEYS = ("DeformRT Contracted", "DeformRT Wobble", "DeformRT Volume")
 WATER_KEY = "DeformRT Water {}"
 _OURS = "DeformRT "  # every key DeformRT bakes starts so
+BAKE_CYCLES = 6  # simulated in a row for a bake: the bell is cruising by then (docs/REPORT.md)
 
 
 def mesoglea_material():
@@ -214,10 +215,13 @@ def bake(scene, bell, frame_start, frame_end, cycle_frames, wobble=0.03, seed=0,
     info = json.loads(bell[PROP_MODEL])
     scale, n_bell = info["scale"], info["bell_vertices"]
     creature, config, optimised = stroke_of(bell)
-    # the stored stroke is replayed (deterministic) for the water its tentacles move in
-    cycle = simulate_cycle(creature, config, sample_fields=True)
+    # the stored stroke is replayed (deterministic) cycle after cycle from rest, as many as the frames
+    # hold (up to BAKE_CYCLES; the last repeats after), and the water of its last cycle moves the tentacles
+    count = int(min(BAKE_CYCLES, max(1, np.ceil((frame_end - frame_start + 1) / cycle_frames))))
+    cycle = simulate_cycles(creature, config, count, sample_fields=True)
     if not np.isfinite(cycle.fitness):
         raise ValueError(f"the stored stroke cannot swim: {cycle.reason}")
+    water_cycle = one_cycle(cycle, count - 1)
     shape = config.bell
     box_half = 0.5 * config.box
     field = bell3d.StrokeField(shape, creature, box_half)
@@ -243,7 +247,7 @@ def bake(scene, bell, frame_start, frame_end, cycle_frames, wobble=0.03, seed=0,
         _set_key(child, KEYS[0], (p + field(p)) * scale)
         _set_key(child, KEYS[1], (p + wobble_field(p)) * scale)
         if water > 0 and (p[:, 2] < 0).any():  # tentacles hang below the margin, veins do not
-            drift = water_drift(cycle, config, np.column_stack([np.hypot(p[:, 0], p[:, 1]), p[:, 2]]))
+            drift = water_drift(water_cycle, config, np.column_stack([np.hypot(p[:, 0], p[:, 1]), p[:, 2]]))
             drifts[child.name] = (drift, _water_keys(child, drift, scale))
         parts.append(child)
     z0 = bell.location.z

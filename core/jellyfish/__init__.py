@@ -10,10 +10,13 @@ from .swimming import (
     default_config,
     default_creature,
     fitness,
+    one_cycle,
     optimize,
     reference_scales,
     simulate_cycle,
+    simulate_cycles,
 )
 
 __all__ = ["CycleResult", "FitnessScales", "JellyfishConfig", "OptimizeResult", "StrokeSpace", "default_config",
-           "default_creature", "fitness", "optimize", "reference_scales", "simulate_cycle"]
+           "default_creature", "fitness", "one_cycle", "optimize", "reference_scales", "simulate_cycle",
+           "simulate_cycles"]

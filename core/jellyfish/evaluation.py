@@ -10,7 +10,9 @@ registers the package's parents as empty namespace stubs, by source passed to ``
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
+import math
 import multiprocessing
 import os
 import sys
@@ -84,12 +86,39 @@ def _main_hidden():
             main.__dict__.update(saved)
 
 
+async def _identity(address, timeout):
+    from distributed.core import rpc
+
+    remote = rpc(address, timeout=timeout)
+    try:
+        return await asyncio.wait_for(remote.identity(), timeout)
+    finally:
+        await remote.close_rpc()
+
+
+def _ask_scheduler(address: str, timeout: float) -> None:
+    """Raise a clear RuntimeError unless a Dask scheduler answers at ``address`` within
+    ``timeout`` seconds. Asked on a loop of its own, which ends with the question: a Client made
+    for an address nothing answers at would wait far longer (a port that is not a scheduler: for
+    ever) and leave its IO thread behind."""
+    if not (math.isfinite(timeout) and timeout > 0):
+        raise ValueError(f"connect_timeout must be a number of seconds > 0, got {timeout}")
+    try:
+        identity = asyncio.run(asyncio.wait_for(_identity(address, timeout), timeout))
+    except (TimeoutError, OSError, ValueError) as err:
+        raise RuntimeError(f"no Dask scheduler answered at {address} within {timeout:g} s ({type(err).__name__}"
+                           f"{': ' + str(err) if str(err) else ''}): start one ('dask scheduler') or check the "
+                           "address") from None
+    if not isinstance(identity, dict) or identity.get("type") != "Scheduler":
+        raise RuntimeError(f"{address} answered but is not a Dask scheduler: check the address")
+
+
 class Evaluator:
     """``map(fn, items)`` in order. ``workers=1`` runs in this process; more (default: every
     core) use a process pool kept for the evaluator's life; ``scheduler="tcp://host:port"``
     (or a ``distributed.Client``) sends the jobs to a Dask cluster instead."""
 
-    def __init__(self, workers=None, scheduler=None):
+    def __init__(self, workers=None, scheduler=None, connect_timeout: float = 10.0):
         self.workers = worker_count(workers)
         self._pool = None
         self._client = None
@@ -102,7 +131,8 @@ class Evaluator:
             if isinstance(scheduler, Client):
                 self._client = scheduler
             else:
-                self._client, self._own_client = Client(scheduler), True
+                _ask_scheduler(str(scheduler), connect_timeout)
+                self._client, self._own_client = Client(scheduler, timeout=connect_timeout), True
             # jobs name core functions by module, so workers must see this package's files (a
             # LocalCluster, or machines sharing its storage); the stubs make its name importable
             self._client.run(exec, _BOOTSTRAP)

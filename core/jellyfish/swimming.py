@@ -23,7 +23,7 @@ from .particle_fluid import Box, LatticeFluid
 @dataclass(frozen=True)
 class JellyfishConfig:
     bell: BellShape = field(default_factory=BellShape)
-    box: float = 0.20  # m, square periodic domain
+    box: float = 0.20  # m, the periodic domain's width
     particles: int = 100  # per side
     substeps: int = 14  # steps per contraction-relaxation cycle (the thesis' Table 3.1)
     period: float = 1.0  # s per cycle
@@ -32,7 +32,11 @@ class JellyfishConfig:
     weights: tuple = (0.4, 0.3, 0.3)  # w_d, w_b, w_e of eq. 3.14
     min_thickness_cells: float = 1.5
     cfl: float = 1.0
-    forcing_iterations: int = 1  # velocity imposed and projected this many times per inner step
+    # velocity imposed and projected this many times per inner step: more change the cruising
+    # cycles' path by -13% (4) to +25% (16), not monotonically (docs/REPORT.md); one is the cheapest
+    forcing_iterations: int = 1
+    box_height: float | None = None  # m along the swimming axis; None: the box's width (square)
+    max_inner_steps: int = 128  # per substep: a stroke too fast for the lattice is refused, not run for hours
 
     def __post_init__(self):
         if self.substeps < 1:
@@ -41,6 +45,25 @@ class JellyfishConfig:
             raise ValueError(f"period must be finite and > 0, got {self.period}")
         if self.box <= self.bell.diameter:
             raise ValueError(f"the box ({self.box} m) must be wider than the bell ({self.bell.diameter} m)")
+        if int(self.max_inner_steps) != self.max_inner_steps or self.max_inner_steps < 1:
+            raise ValueError(f"max_inner_steps must be a whole number >= 1, got {self.max_inner_steps}")
+        height = self.height
+        if not (np.isfinite(height) and height > 2 * self.bell.height):
+            raise ValueError(f"box_height ({height} m) must be more than twice the bell's height "
+                             f"({self.bell.height} m)")
+        rows = self.particles * height / self.box
+        if abs(rows - round(rows)) > 1e-6 * rows:
+            raise ValueError(f"box_height must hold a whole number of particle spacings ({self.box / self.particles:g}"
+                             f" m): {height} m holds {rows:.3f}")
+
+    @property
+    def height(self) -> float:
+        return self.box if self.box_height is None else float(self.box_height)
+
+    @property
+    def rows(self) -> int:
+        """Particles along the swimming axis."""
+        return int(round(self.particles * self.height / self.box))
 
 
 def default_config(**changes) -> JellyfishConfig:
@@ -61,7 +84,9 @@ def default_creature(config: JellyfishConfig) -> Creature:
 
 @dataclass
 class CycleResult:
-    path_m: float  # distance swum along the axis over the cycle
+    """One or more cycles swum in a row: totals over them, and the path of each."""
+
+    path_m: float  # distance swum along the axis over the cycles
     bending_energy: float
     energy_loss: float  # sum over substeps and fluid particles of |v|^2 h^2 (eq. 3.13)
     fitness: float
@@ -70,6 +95,22 @@ class CycleResult:
     speed: np.ndarray | None = None  # bell speed at the end of each substep
     swum: np.ndarray | None = None  # distance swum by the end of each substep
     fields: list = field(default_factory=list)  # sampled (t, u, vorticity, bell mask)
+    path_per_cycle_m: np.ndarray | None = None  # one entry per cycle
+
+
+def one_cycle(result: CycleResult, k: int) -> CycleResult:
+    """Cycle ``k`` of a run of several (``simulate_cycles``): its path, speeds, the distance swum
+    since it began and its sampled water, times counted from its start."""
+    count = len(result.path_per_cycle_m)
+    if not 0 <= k < count:
+        raise ValueError(f"cycle {k} of a run of {count}")
+    sub = len(result.speed) // count
+    before = result.swum[k * sub - 1] if k else 0.0
+    start = result.fields[k * sub - 1][0] if k and result.fields else 0.0
+    fields = [(t - start, *rest) for t, *rest in result.fields[k * sub:(k + 1) * sub]]
+    path = float(result.path_per_cycle_m[k])
+    return replace(result, path_m=path, speed=result.speed[k * sub:(k + 1) * sub],
+                   swum=result.swum[k * sub:(k + 1) * sub] - before, fields=fields, path_per_cycle_m=np.array([path]))
 
 
 @dataclass(frozen=True)
@@ -93,9 +134,9 @@ def fitness(path_m, bending_energy, energy_loss, config, scales: FitnessScales |
     return w_d * path_m / scales.path - w_b * bending_energy / scales.bending - w_e * energy_loss / scales.energy
 
 
-def reference_scales(config, creature=None) -> FitnessScales:
-    """Scales from one cycle of ``creature`` (default: the default creature)."""
-    r = simulate_cycle(creature or default_creature(config), config)
+def reference_scales(config, creature=None, cycles: int = 1) -> FitnessScales:
+    """Scales from ``cycles`` cycles of ``creature`` (default: the default creature)."""
+    r = simulate_cycles(creature or default_creature(config), config, cycles)
     if r.reason is not None:
         raise ValueError(f"the reference creature is refused: {r.reason}")
     tiny = 1e-3 * config.bell.diameter
@@ -109,13 +150,14 @@ class _BellForcing:
         self.fluid, self.config, self.map = fluid, config, bell_map
         self.contraction = contraction
         self.rest, self.left = contour(config.bell)
+        # as far from the bottom as in the square box: a taller box leaves the room ahead
         self.offset = np.array([0.5 * config.box, 0.5 * config.box - 0.5 * config.bell.height])
         self.y = 0.0  # swum so far
         self.speed = 0.0
         self.mask = np.zeros(fluid.n, dtype=bool)
         self.momentum0 = 0.0
         self.reach = 0.5 * config.min_thickness_cells * fluid.h
-        self._at, self._covered = None, None
+        self._at, self._covered, self._rate = None, None, None
 
     def outline(self, t):
         s = phase(t / self.config.period, self.contraction)
@@ -124,8 +166,26 @@ class _BellForcing:
         return pts + self.offset + [0.0, self.y]
 
     def covered(self, polygon):
-        """Particles inside the bell or within ``reach`` of its contour (sampled at a quarter
-        of the particle spacing: the distance is then off by well under a hundredth of it)."""
+        """Particles inside the bell or within ``reach`` of its contour, the box being periodic
+        along the axis: a bell that swims out at the top comes in at the bottom."""
+        height = self.fluid.box.height
+        polygon = polygon - [0.0, height * np.floor(polygon[:, 1].min() / height)]
+        out = self._covered_once(polygon)
+        if polygon[:, 1].max() + self.reach > height:
+            out |= self._covered_once(polygon - [0.0, height])
+        return out
+
+    def local(self, points):
+        """Points in the bell's own frame (its base's centre at rest), the periodic image nearest the bell."""
+        height = self.fluid.box.height
+        local = points - self.offset - [0.0, self.y]
+        middle = 0.5 * self.config.bell.height
+        local[:, 1] = (local[:, 1] - middle + 0.5 * height) % height - 0.5 * height + middle
+        return local
+
+    def _covered_once(self, polygon):
+        """(Sampled at a quarter of the particle spacing: the distance is then off by well under
+        a hundredth of it.)"""
         p = self.fluid.points
         out = np.zeros(len(p), dtype=bool)
         box = np.flatnonzero(np.all((p > polygon.min(0) - self.reach) & (p < polygon.max(0) + self.reach), axis=1))
@@ -143,22 +203,23 @@ class _BellForcing:
         cfg = self.config
         tau = (t / cfg.period) % 1.0
         rate = _phase_rate(tau, self.contraction) / cfg.period
-        if self._at != t:  # the same bell before and after the projection
+        if self._at != t:  # the same bell, moving the same way, in every round and after the projection
             self._at, self._covered = t, self.covered(self.outline(t))
+            self._rate = self.map.spline(self.local(self.fluid.points[self._covered]))
         mask = self._covered
-        local = self.fluid.points[mask] - self.offset - [0.0, self.y]
-        w = rate * self.map.spline(local)
+        w = rate * self._rate
         n = int(mask.sum())
         if n == 0:
             return u
         # total momentum along the axis stays what it was: fluid + bell (water-dense)
         fluid_y = u[~mask, 1].sum()
         self.speed = (self.momentum0 - fluid_y - w[:, 1].sum()) / n
-        u = u.copy()
-        u[mask] = w + [0.0, self.speed]
-        if final:
+        if final:  # the projected field is kept as it is; the bell moves by it
             self.y += self.speed * dt
             self.mask = mask
+            return u
+        u = u.copy()
+        u[mask] = w + [0.0, self.speed]
         return u
 
 
@@ -181,42 +242,65 @@ def _inside(points, polygon):
 
 
 def simulate_cycle(creature: Creature, config: JellyfishConfig | None = None, sample_fields=False,
-                   scales: FitnessScales | None = None) -> CycleResult:
-    """One contraction-relaxation cycle from rest. A creature whose bell would fold through
-    itself is refused with its reason and fitness -inf; a fluid blow-up raises FluidBlowUp."""
+                   scales: FitnessScales | None = None, stop=None) -> CycleResult:
+    """One contraction-relaxation cycle from rest (``simulate_cycles`` with one cycle)."""
+    return simulate_cycles(creature, config, 1, sample_fields, scales, stop)
+
+
+def simulate_cycles(creature: Creature, config: JellyfishConfig | None = None, cycles: int = 1,
+                    sample_fields=False, scales: FitnessScales | None = None, stop=None) -> CycleResult:
+    """``cycles`` contraction-relaxation cycles in a row from rest, the fluid and the bell carried
+    from each into the next. A creature whose bell would fold through itself, or whose stroke is
+    too fast for the lattice (more than ``config.max_inner_steps`` inner steps a substep), is
+    refused with its reason and fitness -inf; a fluid blow-up raises FluidBlowUp. ``stop()`` is
+    polled every substep and a True raises evaluation.Cancelled."""
     config = config or default_config()
+    if int(cycles) != cycles or cycles < 1:
+        raise ValueError(f"cycles must be a whole number >= 1, got {cycles}")
+    cycles = int(cycles)
     t0 = time.perf_counter()
-    half = 0.5 * config.box
-    bell_map = BellMap(config.bell, creature, half)
+    bell_map = BellMap(config.bell, creature, 0.5 * config.box)
     energy_b = bell_map.bending_energy()
+
+    def refused(reason):
+        return CycleResult(np.nan, energy_b, np.nan, -np.inf, reason, {"total_s": time.perf_counter() - t0})
+
     reason = check_folds(config.bell, bell_map)
     if reason is not None:
-        return CycleResult(np.nan, energy_b, np.nan, -np.inf, reason, {"total_s": time.perf_counter() - t0})
-    fluid = LatticeFluid(Box(config.box, config.box, periodic=(True, True)), nx=config.particles,
+        return refused(reason)
+    fluid = LatticeFluid(Box(config.box, config.height, periodic=(True, True)), nx=config.particles, ny=config.rows,
                          viscosity=config.viscosity, density=config.density, cfl=config.cfl,
                          forcing_iterations=config.forcing_iterations)
-    forcing = _BellForcing(fluid, config, bell_map, creature.contraction)
-    forcing.mask = forcing.covered(forcing.outline(0.0))
     dt = config.period / config.substeps
     # the bell's own fastest point may not cross more than a Courant number of particles per
     # inner step either (the fluid only sees its speed once it has moved)
     reach = float(np.abs(bell_map.displacement).max())
     peak_rate = 0.5 * np.pi / min(creature.contraction, 1.0 - creature.contraction) / config.period
     split = max(1, int(np.ceil(dt * reach * peak_rate / (config.cfl * fluid.h))))
-    loss, speeds, swum, fields, inner = 0.0, [], [], [], 0
-    for k in range(config.substeps):
+    if split > config.max_inner_steps:
+        return refused(f"the stroke is too fast for the lattice: {split} inner steps a substep, at most "
+                       f"{config.max_inner_steps} (a longer contraction share, more substeps or max_inner_steps)")
+    forcing = _BellForcing(fluid, config, bell_map, creature.contraction)
+    forcing.mask = forcing.covered(forcing.outline(0.0))
+    loss, speeds, swum, fields, inner, per_cycle = 0.0, [], [], [], 0, []
+    for k in range(cycles * config.substeps):
+        if stop is not None and stop():
+            from .evaluation import Cancelled
+
+            raise Cancelled(per_cycle)
         for _ in range(split):
-            inner += fluid.step(dt / split, forcing)
+            inner += fluid.step(dt / split, forcing, max_inner=config.max_inner_steps)
         fluid_part = ~forcing.mask
         loss += float((fluid.u[fluid_part] ** 2).sum()) * fluid.h**2
         speeds.append(forcing.speed)
         swum.append(forcing.y)
+        if (k + 1) % config.substeps == 0:
+            per_cycle.append(forcing.y - sum(per_cycle))
         if sample_fields:
             fields.append(((k + 1) * dt, fluid.u.copy(), fluid.vorticity(), forcing.mask.copy()))
     timings = {**fluid.timings, "inner_steps": inner, "total_s": time.perf_counter() - t0}
-    return CycleResult(forcing.y, energy_b, loss,
-                       fitness(forcing.y, energy_b, loss, config, scales),
-                       None, timings, np.array(speeds), np.array(swum), fields)
+    return CycleResult(forcing.y, energy_b, loss, fitness(forcing.y, energy_b, loss, config, scales), None, timings,
+                       np.array(speeds), np.array(swum), fields, np.array(per_cycle))
 
 
 @dataclass(frozen=True)
@@ -294,8 +378,11 @@ def optimize(config: JellyfishConfig | None = None, method="ga-sa", seed=0, popu
     space = space or StrokeSpace()
     if method not in ("ga-sa", "de", "random"):
         raise ValueError(f"unknown method {method!r}: choose 'ga-sa', 'de' or 'random'")
+    if budget is not None and not (int(budget) == budget and budget >= 1):
+        raise ValueError(f"budget must be a whole number of evaluations >= 1 (None: what ga-sa may spend), "
+                         f"got {budget}")
     t0 = time.perf_counter()
-    budget = int(budget or population * (generations + 1))
+    budget = int(budget if budget is not None else population * (generations + 1))
     expected = population * (generations + 1) if method == "ga-sa" else budget
     scales = reference_scales(config)
     rng = np.random.default_rng(seed)

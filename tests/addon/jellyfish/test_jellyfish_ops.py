@@ -80,6 +80,10 @@ def test_optimise_in_worker_processes_then_bake_a_swim_that_keeps_its_volume(ext
     assert radius[peak - 1] < radius[0] and radius[12] == pytest.approx(radius[0], rel=0.02)
     scene.frame_set(13)  # one cycle on: the bell has swum the stored path, in its own scale
     assert jelly.location.z == pytest.approx(stroke["path_m"] * 5.0, abs=1e-6)
+    scene.frame_set(25)  # two cycles on: the second carried on from the first, not the first again
+    two = core_jf.simulate_cycles(creature, core_jf.default_config(particles=30), 2)
+    assert jelly.location.z == pytest.approx(two.path_m * 5.0, abs=1e-6)
+    assert two.path_per_cycle_m[1] != pytest.approx(two.path_per_cycle_m[0], rel=1e-3)
     keys = [k.name for k in jelly.data.shape_keys.key_blocks]
     assert bpy.ops.deformrt.bake_jellyfish(frame_start=1, frame_end=25, cycle_frames=12) == {"FINISHED"}
     assert [k.name for k in jelly.data.shape_keys.key_blocks] == keys  # baking again replaces
@@ -119,9 +123,11 @@ def test_tentacles_go_with_the_simulated_water(extension, jelly):
     water = [b for b in blocks if b.name.startswith("DeformRT Water")]
     basis = _key_co(blocks["Basis"]) / 5.0  # a 0.5 m bell is the 10 cm model times 5
     r, phi = np.hypot(basis[:, 0], basis[:, 1]), np.arctan2(basis[:, 1], basis[:, 0])
-    # nothing optimised: the bake replays the default creature on the coarse lattice
+    # nothing optimised: the bake replays the default creature on the coarse lattice, two cycles for
+    # its 15 frames, and the tentacles go with the water of the last
     cfg = core_jf.default_config(particles=60)
-    cycle = core_jf.simulate_cycle(core_jf.default_creature(cfg), cfg, sample_fields=True)
+    run = core_jf.simulate_cycles(core_jf.default_creature(cfg), cfg, 2, sample_fields=True)
+    cycle = core_jf.one_cycle(run, 1)
     expect = drift_mod.water_drift(cycle, cfg, np.column_stack([r, basis[:, 2]]))
     assert 1 <= len(water) <= 3
     for k in range(cfg.substeps):

@@ -34,10 +34,11 @@ def test_the_default_stroke_swims_forward_and_the_flow_stays_mirror_symmetric():
 
 def test_scallop_theorem_a_reciprocal_stroke_does_not_swim_in_syrup():
     # at low Reynolds number a stroke that retraces itself gets nowhere (Purcell 1977)
-    water = simulate_cycle(default_creature(default_config()), default_config(particles=N)).path_m
-    syrup_cfg = default_config(particles=N, viscosity=0.1)
+    # (56 substeps: at 14 on this coarse lattice the time steps alone break reversibility by 10%)
+    water = simulate_cycle(default_creature(default_config()), default_config(particles=N, substeps=56)).path_m
+    syrup_cfg = default_config(particles=N, viscosity=0.1, substeps=56)
     syrup = simulate_cycle(default_creature(syrup_cfg), syrup_cfg).path_m
-    assert abs(syrup) < 0.05 * water
+    assert abs(syrup) < 0.02 * water
 
 
 @pytest.mark.parametrize("scale", [0.01, 10.0])

@@ -48,6 +48,9 @@ def test_stroke_space_round_trips_and_holds_the_default_stroke():
         StrokeSpace(contraction=(0.6, 0.2)).creature(genes, CFG)
     with pytest.raises(ValueError, match="unknown method"):
         optimize(CFG, method="cma")
+    for budget in (0, -3, 2.5):  # 0 used to mean "the default" without a word
+        with pytest.raises(ValueError, match="budget"):
+            optimize(CFG, method="random", budget=budget)
 
 
 def test_same_seed_same_optimum_in_this_process_and_in_a_process_pool():
@@ -87,6 +90,33 @@ def test_a_dask_cluster_finds_what_the_local_pool_finds():
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as lc:
         far = optimize(CFG, seed=5, population=4, generations=1, scheduler=lc.scheduler_address)
     assert far.backend == "dask" and _same(local, far)
+
+
+def test_an_address_with_no_scheduler_is_refused_in_bounded_time_and_leaves_no_thread():
+    """Nothing listening, and a port that takes connections but never answers (which used to hang
+    for minutes): a RuntimeError naming the address within the timeout, no IO thread left."""
+    pytest.importorskip("distributed")
+    import socket
+    import threading
+    import time
+
+    from core.jellyfish.evaluation import Evaluator
+
+    silent = socket.socket()
+    silent.bind(("127.0.0.1", 0))
+    silent.listen(4)
+    closed = socket.socket()
+    closed.bind(("127.0.0.1", 0))  # bound, not listening: refuses
+    try:
+        for port in (closed.getsockname()[1], silent.getsockname()[1]):
+            t0 = time.perf_counter()
+            with pytest.raises(RuntimeError, match=f"no Dask scheduler answered at tcp://127.0.0.1:{port}"):
+                Evaluator(scheduler=f"tcp://127.0.0.1:{port}", connect_timeout=1.0)
+            assert time.perf_counter() - t0 < 5.0
+            assert not [t.name for t in threading.enumerate() if "IO loop" in t.name]
+    finally:
+        silent.close()
+        closed.close()
 
 
 @pytest.mark.parametrize("seed, generations", [(0, 1), (1, 3), (2, 3)])

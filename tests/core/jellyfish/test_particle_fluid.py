@@ -129,10 +129,11 @@ def test_a_blow_up_is_reported_not_returned():
         f.step(0.01)
 
 
-def test_repeated_forcing_leaves_the_field_closer_to_divergence_free():
+def test_repeated_forcing_leaves_the_field_closer_to_the_body_s_velocity():
     # a disc pushed through still fluid: the exact field is divergence-free with the disc's
-    # velocity inside; imposing and projecting in turn approaches it
-    worst = []
+    # velocity inside; imposing and projecting in turn approaches it. The field kept is the
+    # projected one (imposing once more would leave a divergence at the disc's edge)
+    slip, div = [], []
     for rounds in (1, 2, 4, 8):
         f = LatticeFluid(Box(1.0, 1.0, periodic=(True, True)), nx=32, viscosity=1e-3, density=1.0,
                          forcing_iterations=rounds)
@@ -144,10 +145,11 @@ def test_repeated_forcing_leaves_the_field_closer_to_divergence_free():
             return u
 
         f.step(0.01, forcing)
-        np.testing.assert_array_equal(f.u[disc], np.tile([1.0, 0.0], (disc.sum(), 1)))
-        worst.append(np.abs(f.divergence()).max())
-    assert all(b < a for a, b in zip(worst, worst[1:], strict=False))
-    assert worst[-1] < 0.5 * worst[0]
+        slip.append(np.abs(f.u[disc] - [1.0, 0.0]).max())
+        div.append(np.abs(f.divergence()).max())
+    assert all(b < 0.6 * a for a, b in zip(slip, slip[1:], strict=False))
+    assert slip[-1] < 0.1 * slip[0]
+    assert max(div) <= 1.2 * div[0]  # no divergence left by the last imposition
 
 
 @pytest.mark.parametrize("make, match", [
