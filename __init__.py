@@ -41,6 +41,7 @@ def unregister():
     from .addon import properties
     from .addon.layers import frame_handler, staleness
     from .addon.render import engine as render_engine
+    from .core.geometry import parallel
     from .core.layering.body_facts import forget_garments
     from .operators import jellyfish as jellyfish_ops
     from .operators.cli import commands as cli
@@ -54,3 +55,4 @@ def unregister():
     if _unregister_classes is not None:
         _unregister_classes()
     forget_garments()  # what resolves kept of garments, their ray scenes too: Embree memory back
+    parallel.shutdown()  # and the ray and search threads

@@ -33,6 +33,16 @@ def _get_pool(threads: int) -> ThreadPoolExecutor:
         return _pool
 
 
+def shutdown() -> None:
+    """Stop the shared pool's threads (they start again on the next parallel call): an add-on
+    that is switched off leaves none running."""
+    global _pool
+    with _pool_lock:
+        if _pool is not None:
+            _pool.shutdown(wait=True, cancel_futures=True)
+            _pool = None
+
+
 def map_chunks(fn, n: int, min_chunk: int, threads: int | None = None, block: int | None = None) -> list:
     """``fn(slice)`` over about ``4 x threads`` slices of ``range(n)`` (none below ``min_chunk``
     items, where a thread hand-off costs more than it saves), in order. With ``block``, each

@@ -3,6 +3,7 @@
 import importlib
 import subprocess
 import sys
+import threading
 
 import bpy
 import numpy as np
@@ -39,9 +40,13 @@ def test_register_unregister_register_leaves_nothing_behind(clean_scene, extensi
     cache = importlib.import_module(MODULE + ".core.rays.scene_cache")
     cache.kept_scene(b"a garment as it came", np.eye(3), np.array([[0, 1, 2]]))  # what a resolve keeps
     assert cache.kept_bytes() > 0
+    parallel = importlib.import_module(MODULE + ".core.geometry.parallel")
+    parallel.map_chunks(lambda sl: sl.stop - sl.start, 1000, 1, threads=2)  # the shared pool's threads start
+    assert any(t.name.startswith("deformrt") for t in threading.enumerate())
     assert bpy.ops.preferences.addon_disable(module=MODULE) == {"FINISHED"}
     try:
         assert cache.kept_bytes() == 0  # disabling the add-on gives the kept ray scenes back
+        assert not [t.name for t in threading.enumerate() if t.name.startswith("deformrt")]  # and its threads
         assert not hasattr(bpy.types.Object, "deformrt")
         assert not hasattr(bpy.types.Scene, "deformrt")
         for name in ("DEFORMRT_PT_layers", "DEFORMRT_OT_tag_body", "DEFORMRT_OT_move_layer"):
