@@ -67,6 +67,40 @@ class DEFORMRT_OT_tag_garments(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class DEFORMRT_OT_tag_makehuman(bpy.types.Operator):
+    """Tag an MPFB2 character: its body or proxy as the body, its clothes as garments in MakeHuman's order"""
+
+    bl_idname = "deformrt.tag_makehuman"
+    bl_label = "Tag MakeHuman Character"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        if context.scene is None or not any(scene_roles.mpfb_type(o) == "Basemesh" for o in context.scene.objects):
+            cls.poll_message_set("No MPFB2 (MakeHuman) character in the scene")
+            return False
+        return True
+
+    def execute(self, context):
+        found = scene_roles.mpfb_character(context.scene, near=context.active_object)
+        if found is None:
+            self.report({"ERROR"}, "More than one MakeHuman character: select one of its objects first")
+            return {"CANCELLED"}
+        body, clothes, order = found
+        if not clothes:
+            self.report({"ERROR"}, f"{body.name} wears no MakeHuman clothes: nothing to layer")
+            return {"CANCELLED"}
+        for obj in context.scene.objects:  # one character's layers: other tags would mix in
+            if obj.deformrt.role != "NONE" and obj is not body and obj not in clothes:
+                obj.deformrt.role = "NONE"
+        body.deformrt.role, body.deformrt.layer = "BODY", 0
+        for layer, obj in enumerate(clothes, start=1):
+            obj.deformrt.role, obj.deformrt.layer = "GARMENT", layer
+        how = "MakeHuman's z_depth" if order == "z_depth" else "kind (no z_depth on every piece)"
+        self.report({"INFO"}, f"Body: {body.name}; layers by {how}: " + " < ".join(o.name for o in clothes))
+        return {"FINISHED"}
+
+
 class DEFORMRT_OT_clear_role(bpy.types.Operator):
     """Take the selected objects out of garment layering"""
 
@@ -155,5 +189,5 @@ class DEFORMRT_OT_move_layer(bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = (DEFORMRT_OT_tag_body, DEFORMRT_OT_tag_garments, DEFORMRT_OT_clear_role, DEFORMRT_OT_order_by_kind,
-           DEFORMRT_OT_move_layer)
+CLASSES = (DEFORMRT_OT_tag_body, DEFORMRT_OT_tag_garments, DEFORMRT_OT_tag_makehuman, DEFORMRT_OT_clear_role,
+           DEFORMRT_OT_order_by_kind, DEFORMRT_OT_move_layer)

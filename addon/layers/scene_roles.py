@@ -32,6 +32,63 @@ def kind_rank(name: str) -> float:
     return rank
 
 
+# MPFB2 (MakeHuman for Blender) keeps what each of its objects is in a string property of the
+# object (its GeneralObjectProperties, prefix MPFB_GEN_; older files: MhObjectType) and, for
+# clothes made or loaded with MakeClothes, the MHCLO z_depth (MakeClothesObjectProperties, MC_).
+# Registered or not (MPFB2 need not be installed), their values live in the object's ID properties.
+MPFB_TYPE_KEYS = ("MPFB_GEN_object_type", "MhObjectType")
+MPFB_Z_DEPTH_KEYS = ("MC_z_depth", "MPFB_GEN_z_depth")
+
+
+def mpfb_type(obj) -> str:
+    """MPFB2's object type ("Basemesh", "Proxymeshes", "Clothes", "Eyes", ...) or ""."""
+    for key in MPFB_TYPE_KEYS:
+        value = obj.get(key)
+        if isinstance(value, str) and value:
+            return value
+    return ""
+
+
+def _z_depth(obj):
+    for key in MPFB_Z_DEPTH_KEYS:
+        value = obj.get(key)
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            return float(value)
+    return None
+
+
+def _character_root(obj):
+    while obj.parent is not None:
+        obj = obj.parent
+    return obj
+
+
+def mpfb_character(scene, near=None):
+    """(body, clothes inner to outer, "z_depth" or "kind") of the MPFB2 character that holds
+    ``near`` (else the only one in the scene), or None. The body is the proxy mesh that replaces
+    the base mesh when there is one that renders; clothes go in MakeHuman's z_depth order when
+    every piece has one, else by kind of name (underwear < shirts, trousers < sweaters < jackets
+    < coats). Eyes, eyebrows, hair and teeth are not garments."""
+    meshes = [o for o in scene.objects if o.type == "MESH" and mpfb_type(o) and not _baked(o)]
+    roots = {_character_root(o) for o in meshes if mpfb_type(o) == "Basemesh"}
+    if near is not None and _character_root(near) in roots:
+        roots = {_character_root(near)}
+    if len(roots) != 1:
+        return None
+    root = roots.pop()
+    own = [o for o in meshes if _character_root(o) is root]
+    kind = {o: mpfb_type(o) for o in own}
+    proxies = [o for o in own if kind[o] == "Proxymeshes" and not o.hide_render]
+    bases = [o for o in own if kind[o] == "Basemesh"]
+    body = proxies[0] if proxies else bases[0]
+    clothes = [o for o in own if kind[o] == "Clothes"]
+    depths = [_z_depth(o) for o in clothes]
+    if all(d is not None for d in depths):
+        order = dict(zip(clothes, depths, strict=True))
+        return body, sorted(clothes, key=lambda o: (order[o], kind_rank(o.name), o.name)), "z_depth"
+    return body, sorted(clothes, key=lambda o: (kind_rank(o.name), o.name)), "kind"
+
+
 # Baked copies keep their role and layer for the tools they are exported to, but are not
 # inputs of the scene's own layering.
 BAKED_COLLECTION = "DeformRT Baked"

@@ -21,6 +21,8 @@ class DEFORMRT_PT_layers(bpy.types.Panel):
         row = layout.row(align=True)
         row.operator("deformrt.tag_body", icon="OUTLINER_OB_ARMATURE")
         row.operator("deformrt.tag_garments", icon="MOD_CLOTH")
+        if any(scene_roles.mpfb_type(o) == "Basemesh" for o in scene.objects):
+            layout.operator("deformrt.tag_makehuman", icon="COMMUNITY")
         row = layout.row(align=True)
         row.operator("deformrt.clear_role", icon="X")
         row.operator("deformrt.order_by_kind", icon="SORTSIZE")

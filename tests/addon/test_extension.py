@@ -221,3 +221,53 @@ def test_garments_tagged_together_are_ordered_by_kind(clean_scene):
     assert coat.deformrt.layer == 1
     bpy.ops.deformrt.order_by_kind()
     assert [o.deformrt.layer for o in order] == [1, 2, 3, 4, 5, 6]
+
+
+def _mpfb(obj, kind, z_depth=None, parent=None):
+    """An object as MPFB2 leaves it: its type in GeneralObjectProperties (MPFB_GEN_), the clothes'
+    z_depth in MakeClothesObjectProperties (MC_), parented to the character's rig."""
+    obj["MPFB_GEN_object_type"] = kind
+    if z_depth is not None:
+        obj["MC_z_depth"] = z_depth
+    obj.parent = parent
+    return obj
+
+
+def _character(name, z_depths=True):
+    rig = bpy.data.objects.new(f"{name}.rig", bpy.data.armatures.new(f"{name}.rig"))
+    bpy.context.scene.collection.objects.link(rig)
+    body = _mpfb(add_mesh(f"{name}.body"), "Basemesh", parent=rig)
+    _mpfb(add_mesh(f"{name}.eyes"), "Eyes", parent=rig)
+    # MakeHuman's z_depths: a name that says nothing, and one that says the opposite of its depth
+    clothes = [_mpfb(add_mesh(f"{name}.{n}"), "Clothes", d if z_depths else None, parent=rig)
+               for n, d in (("jacket_lining", 30), ("Outfit 2", 60), ("t_shirt", 45))]
+    return rig, body, clothes
+
+
+def test_one_click_tags_a_makehuman_character_in_its_z_depth_order(clean_scene):
+    rig, body, (lining, outfit, shirt) = _character("Anna")
+    stray = add_mesh("stray garment")
+    stray.deformrt.role = "GARMENT"
+    assert bpy.ops.deformrt.tag_makehuman() == {"FINISHED"}
+    assert body.deformrt.role == "BODY"
+    assert [o.deformrt.layer for o in (lining, shirt, outfit)] == [1, 2, 3]  # by z_depth, not by name
+    assert all(o.deformrt.role == "GARMENT" for o in (lining, shirt, outfit))
+    assert bpy.data.objects["Anna.eyes"].deformrt.role == "NONE" and stray.deformrt.role == "NONE"
+    # a proxy that renders is the body the clothes lie on
+    proxy = _mpfb(add_mesh("Anna.proxy"), "Proxymeshes", parent=rig)
+    assert bpy.ops.deformrt.tag_makehuman() == {"FINISHED"}
+    assert proxy.deformrt.role == "BODY" and body.deformrt.role == "NONE"
+
+
+def test_without_z_depths_the_clothes_go_by_kind_and_two_characters_need_a_choice(clean_scene):
+    _, _, (lining, outfit, shirt) = _character("Ben", z_depths=False)
+    assert bpy.ops.deformrt.tag_makehuman() == {"FINISHED"}
+    assert [o.name for o in sorted((lining, outfit, shirt), key=lambda o: o.deformrt.layer)] == \
+        ["Ben.Outfit 2", "Ben.t_shirt", "Ben.jacket_lining"]  # unknown and shirt (1) < jacket (3)
+    _, cleo_body, cleo_clothes = _character("Cleo")
+    select()
+    with pytest.raises(RuntimeError, match="More than one MakeHuman character"):
+        bpy.ops.deformrt.tag_makehuman()
+    select(cleo_clothes[1])
+    assert bpy.ops.deformrt.tag_makehuman() == {"FINISHED"}
+    assert cleo_body.deformrt.role == "BODY" and lining.deformrt.role == "NONE"
