@@ -22,7 +22,8 @@ ROLE_ITEMS = (
 
 
 class DeformRTObjectProperties(bpy.types.PropertyGroup):
-    role: EnumProperty(name="Role", items=ROLE_ITEMS, default="NONE")
+    role: EnumProperty(name="Role", items=ROLE_ITEMS, default="NONE",
+                       description="What the object is in garment layering: the body, a garment, or neither")
     layer: IntProperty(
         name="Layer",
         description="Body is 0; a garment on a higher layer is worn over the lower ones",
@@ -47,7 +48,7 @@ class DeformRTPartProbe(bpy.types.PropertyGroup):
     part: EnumProperty(name="Part", items=PART_ITEMS, description="Body part whose probe distance this sets")
     distance: FloatProperty(
         name="Probe Distance",
-        description="How far probe rays of this part look for a higher layer (l_s)",
+        description="How far probe rays of this part look for a higher layer",
         default=0.05,
         min=0.0,
         soft_max=0.5,
@@ -78,7 +79,7 @@ class DeformRTSceneProperties(bpy.types.PropertyGroup):
     )
     offset: FloatProperty(
         name="Offset",
-        description="Gap left behind a higher layer (d); 0 picks 0.1% of the body's size, about 2 mm on a person",
+        description="Gap left behind a higher layer; Auto (0) takes 0.1% of the body's size, about 2 mm on a person",
         default=0.0,
         min=0.0,
         soft_max=0.05,
@@ -88,17 +89,18 @@ class DeformRTSceneProperties(bpy.types.PropertyGroup):
     )
     probe_distance: FloatProperty(
         name="Probe Distance",
-        description="How far probe rays look for a higher layer (l_s); 0 takes each body part's radius",
+        description="How far probe rays look for a higher layer; Auto (0) takes each body part's radius",
         default=0.0,
         min=0.0,
         soft_max=1.0,
         subtype="DISTANCE",
         unit="LENGTH",
     )
-    part_probes: CollectionProperty(type=DeformRTPartProbe, name="Per-Part Probe Distances")
+    part_probes: CollectionProperty(type=DeformRTPartProbe, name="Per-Part Probe Distances",
+                                   description="Probe distances set for single body parts")
     boundary_pass: BoolProperty(
         name="Tuck Under Hems",
-        description="Smoothly pull lower layers in under higher layers' hems and cuffs (thesis Fig. 4.10)",
+        description="Smoothly pull lower layers in under higher layers' hems and cuffs",
         default=True,
     )
     body_guard: BoolProperty(
@@ -109,7 +111,7 @@ class DeformRTSceneProperties(bpy.types.PropertyGroup):
     )
     remove_hidden: BoolProperty(
         name="Hide Poke-Through",
-        description="Leave out triangles that still cross a higher layer after the move (thesis Fig. 4.14)",
+        description="Leave out triangles that still cross a higher layer after the move",
         default=True,
     )
     hide_covered_skin: BoolProperty(

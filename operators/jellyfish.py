@@ -23,7 +23,7 @@ class _NeedsJellyfish:
 
 
 class DEFORMRT_OT_add_jellyfish(bpy.types.Operator):
-    """Add a jellyfish: the thesis' bell turned about its axis, with a velum, veins and tentacles"""
+    """Add a jellyfish: a bell turned about its axis, with a velum, veins and tentacles"""
 
     bl_idname = "deformrt.add_jellyfish"
     bl_label = "Jellyfish"
@@ -51,8 +51,7 @@ class DEFORMRT_OT_add_jellyfish(bpy.types.Operator):
 
 
 class DEFORMRT_OT_optimize_jellyfish(_NeedsJellyfish, BackgroundOperator, bpy.types.Operator):
-    """Find the stroke that swims best for its effort (thesis eq. 3.14) and keep it on the jellyfish;
-    in the UI it runs in the background and Esc keeps the best stroke found so far"""
+    """Search the stroke that swims farthest for its effort and keep it on the jellyfish; Esc keeps the best so far"""
 
     bl_idname = "deformrt.optimize_jellyfish"
     bl_label = "Optimize Stroke"
@@ -100,8 +99,7 @@ class DEFORMRT_OT_optimize_jellyfish(_NeedsJellyfish, BackgroundOperator, bpy.ty
 
 
 class DEFORMRT_OT_bake_jellyfish(_NeedsJellyfish, DeformRTOperator, bpy.types.Operator):
-    """Animate the jellyfish with its stroke: shape keys and keyframes that play and render
-    without DeformRT (baking again replaces them)"""
+    """Animate the jellyfish with its stroke as shape keys and keyframes that play without DeformRT"""
 
     bl_idname = "deformrt.bake_jellyfish"
     bl_label = "Bake Swimming"

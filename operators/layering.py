@@ -19,8 +19,7 @@ class _NeedsGarments:
 
 
 class DEFORMRT_OT_resolve_layers(BackgroundOperator, bpy.types.Operator):
-    """Move lower garments behind higher ones and hide what still pokes through (non-destructive:
-    a DeformRT modifier on each garment; its mesh is not changed)"""
+    """Move lower garments behind higher ones and hide what still shows through, without changing the meshes"""
 
     bl_idname = "deformrt.resolve_layers"
     bl_label = "Resolve Layers"
@@ -89,9 +88,7 @@ class DEFORMRT_OT_remove_part_probe(DeformRTOperator, bpy.types.Operator):
 
 
 class DEFORMRT_OT_auto_segment(DeformRTOperator, bpy.types.Operator):
-    """Split the body into parts (from its rig's vertex groups) and give every garment the
-    part of the body under it, as DRT_<part> vertex groups you can repaint; the resolve
-    follows them"""
+    """Split the body into parts from its rig and give each garment the part under it as editable vertex groups"""
 
     bl_idname = "deformrt.auto_segment"
     bl_label = "Auto-Segment"
@@ -114,8 +111,7 @@ class DEFORMRT_OT_auto_segment(DeformRTOperator, bpy.types.Operator):
 
 
 class DEFORMRT_OT_transfer_normals(_NeedsGarments, DeformRTOperator, bpy.types.Operator):
-    """Store each garment's global normals (from the body under it) as a vector attribute you
-    can see and edit; the resolve follows the stored ones until they are removed"""
+    """Store each garment's normals from the body under it as an attribute the resolve follows until removed"""
 
     bl_idname = "deformrt.transfer_normals"
     bl_label = "Transfer Global Normals"
@@ -152,8 +148,7 @@ class DEFORMRT_OT_clear_results(DeformRTOperator, bpy.types.Operator):
 
 
 class DEFORMRT_OT_bake_results(_NeedsGarments, DeformRTOperator, bpy.types.Operator):
-    """Write what the body and garments render now as plain meshes into the "DeformRT Baked"
-    collection, for export (glTF, FBX, OBJ, Alembic)"""
+    """Copy what the body and garments render now as plain meshes into the DeformRT Baked collection, for export"""
 
     bl_idname = "deformrt.bake_results"
     bl_label = "Bake Meshes"
@@ -174,8 +169,7 @@ class DEFORMRT_OT_bake_results(_NeedsGarments, DeformRTOperator, bpy.types.Opera
 
 
 class DEFORMRT_OT_inspect_layers(_NeedsGarments, DeformRTOperator, bpy.types.Operator):
-    """Measure the layers as fitted and as shown now: crossing edges, poke-through over 16
-    views, how far the resolve moved the garments and how much it stretched them"""
+    """Measure crossing edges, poke-through, moves and stretch of the layers as fitted and as shown now"""
 
     bl_idname = "deformrt.inspect_layers"
     bl_label = "Inspect"
@@ -192,8 +186,7 @@ class DEFORMRT_OT_inspect_layers(_NeedsGarments, DeformRTOperator, bpy.types.Ope
 
 
 class DEFORMRT_OT_bake_frames(_NeedsGarments, DeformRTOperator, bpy.types.Operator):
-    """Resolve every frame of a range and write the garments (and body) as an Alembic mesh
-    cache, so a render farm or another tool needs no DeformRT"""
+    """Resolve every frame of a range and write body and garments to an Alembic cache that needs no DeformRT"""
 
     bl_idname = "deformrt.bake_frames"
     bl_label = "Bake Frames"

@@ -38,8 +38,7 @@ class DEFORMRT_OT_tag_body(bpy.types.Operator):
 
 
 class DEFORMRT_OT_tag_garments(bpy.types.Operator):
-    """Make the selected meshes garments, each on a new layer above the current outermost one,
-    ordered among themselves by kind (underwear, shirt or trousers, sweater, jacket, coat)"""
+    """Make the selected meshes garments on new outer layers, ordered by kind (underwear to coat)"""
 
     bl_idname = "deformrt.tag_garments"
     bl_label = "Tag as Garments"
@@ -125,8 +124,7 @@ class DEFORMRT_OT_clear_role(bpy.types.Operator):
 
 
 class DEFORMRT_OT_order_by_kind(bpy.types.Operator):
-    """Re-order all garments by kind: underwear, shirts and trousers, sweaters, jackets, coats
-    (garments of the same kind keep their order)"""
+    """Re-order all garments by kind, from underwear to coats; garments of one kind keep their order"""
 
     bl_idname = "deformrt.order_by_kind"
     bl_label = "Order by Kind"

@@ -1,6 +1,7 @@
 """The DeformRT sidebar tab in the 3D View."""
 
 import json
+import textwrap
 
 import bpy
 
@@ -74,12 +75,15 @@ class DEFORMRT_PT_resolve(bpy.types.Panel):
         layout.use_property_decorate = False
         row = layout.row(align=True)
         row.prop(settings, "scheme")
-        row.operator("deformrt.auto_segment", text="", icon="GROUP_VERTEX")
+        row.operator("deformrt.auto_segment", text="Auto-Segment", icon="GROUP_VERTEX")
         row = layout.row(align=True)
         row.operator("deformrt.transfer_normals", icon="NORMALS_VERTEX")
-        row.operator("deformrt.transfer_normals", text="", icon="X").remove = True
-        layout.prop(settings, "offset")
-        layout.prop(settings, "probe_distance")
+        row.operator("deformrt.transfer_normals", text="Remove", icon="X").remove = True
+        for name in ("offset", "probe_distance"):  # 0 means "found from the body": say so
+            row = layout.row(align=True)
+            row.prop(settings, name)
+            if getattr(settings, name) == 0:
+                row.label(text="Auto")
         if settings.scheme != "NONE":
             col = layout.column(align=True)
             for k, item in enumerate(settings.part_probes):
@@ -92,21 +96,26 @@ class DEFORMRT_PT_resolve(bpy.types.Panel):
         layout.prop(settings, "body_guard")
         layout.prop(settings, "remove_hidden")
         layout.prop(settings, "hide_covered_skin")
-        col = layout.column(align=True)
-        col.scale_y = 1.3
-        col.operator("deformrt.resolve_layers", icon="MOD_CLOTH")
+        # everyday work first; exports (long) apart; the one that removes work last, set off
         row = layout.row(align=True)
-        row.operator("deformrt.clear_results", icon="X")
-        row.operator("deformrt.bake_results", icon="EXPORT")
-        row = layout.row(align=True)
+        row.scale_y = 1.3
+        row.operator("deformrt.resolve_layers", icon="MOD_CLOTH")
         row.operator("deformrt.inspect_layers", icon="VIEWZOOM")
-        row.operator("deformrt.bake_frames", icon="RENDER_ANIMATION")
         layout.prop(settings, "resolve_on_frame_change")
         lines = report_lines(report.read(context.scene))
         if lines:
-            box = layout.box()
-            for line in lines:
-                box.label(text=line)
+            box = layout.box().column(align=True)
+            width = max(24, int(context.region.width / 7)) if context.region is not None else 60
+            for line in lines:  # the sidebar clips a label: long lines are wrapped to its width
+                for piece in textwrap.wrap(line, width) or [""]:
+                    box.label(text=piece)
+        box = layout.box()
+        box.label(text="Export", icon="EXPORT")
+        row = box.row(align=True)
+        row.operator("deformrt.bake_results", icon="MESH_DATA")
+        row.operator("deformrt.bake_frames", icon="RENDER_ANIMATION")
+        layout.separator()
+        layout.operator("deformrt.clear_results", icon="TRASH")
 
 
 class DEFORMRT_PT_jellyfish(bpy.types.Panel):
@@ -114,7 +123,7 @@ class DEFORMRT_PT_jellyfish(bpy.types.Panel):
     bl_label = "Jellyfish"
     bl_space_type = "VIEW_3D"
     bl_region_type = "UI"
-    bl_category = "DeformRT"
+    bl_category = "Jellyfish"  # a tab of its own: it has nothing to do with the garments
 
     def draw(self, context):
         layout = self.layout

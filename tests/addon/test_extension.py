@@ -271,3 +271,23 @@ def test_without_z_depths_the_clothes_go_by_kind_and_two_characters_need_a_choic
     select(cleo_clothes[1])
     assert bpy.ops.deformrt.tag_makehuman() == {"FINISHED"}
     assert cleo_body.deformrt.role == "BODY" and lining.deformrt.role == "NONE"
+
+
+def test_tooltips_are_one_plain_sentence(extension):
+    """Every operator's and setting's tooltip: one line, no thesis symbols or references, and
+    every setting has one."""
+    jargon = ("thesis", "seed", "(d)", "(l_s)", "eq.", "Fig.")
+    ops = [getattr(bpy.ops.deformrt, name).get_rna_type() for name in dir(bpy.ops.deformrt)]
+    assert len(ops) > 15
+    for rna in ops:
+        text = rna.description
+        assert text and "\n" not in text and "  " not in text and len(text) <= 120, (rna.identifier, text)
+        assert not any(j in text for j in jargon), (rna.identifier, text)
+    groups = [bpy.types.Object.bl_rna.properties["deformrt"].fixed_type,
+              bpy.types.Scene.bl_rna.properties["deformrt"].fixed_type]
+    for group in groups:
+        for prop in group.properties:
+            if prop.identifier in {"rna_type", "name"} or prop.is_hidden:
+                continue
+            text = prop.description
+            assert text and "\n" not in text and not any(j in text for j in jargon), (prop.identifier, text)

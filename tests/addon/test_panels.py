@@ -1,0 +1,68 @@
+"""The sidebar panels drawn into a recording layout (background Blender draws none): what a user
+sees, in which order, and that no line is wider than the sidebar."""
+
+import importlib
+import json
+
+import bpy
+import pytest
+
+
+class Recorder:
+    """A UILayout stand-in: every row, column and box is the same flat list of what was drawn."""
+
+    def __init__(self, drawn=None):
+        self.drawn = [] if drawn is None else drawn
+
+    def __getattr__(self, name):
+        if name in ("row", "column", "box", "split"):
+            return lambda *a, **k: Recorder(self.drawn)
+        if name == "operator":
+            def operator(idname, text=None, **k):
+                self.drawn.append(("op", idname, text))
+                return type("Props", (), {})()
+            return operator
+        if name in ("label", "prop", "separator"):
+            def record(*a, **k):
+                self.drawn.append((name, k.get("text", a[1] if len(a) > 1 else None)))
+            return record
+        raise AttributeError(name)
+
+    def __setattr__(self, name, value):
+        object.__setattr__(self, name, value)
+
+
+def draw(extension, panel_name):
+    panels = importlib.import_module(f"{extension.__name__}.addon.ui.panels")
+    panel = getattr(panels, panel_name)
+    layout = Recorder()
+    panel.draw(type("Panel", (), {"layout": layout})(), bpy.context)
+    return layout.drawn
+
+
+@pytest.fixture
+def tubes(extension, clean_scene):
+    return importlib.import_module(f"{extension.__name__}.sample_scenes.tubes").build(seed=0, resolution=32)
+
+
+def test_the_resolve_panel_puts_everyday_work_first_and_clearing_last(extension, tubes):
+    ops = [(d[1], d[2]) for d in draw(extension, "DEFORMRT_PT_resolve") if d[0] == "op"]
+    names = [o for o, _ in ops]
+    assert names.index("deformrt.resolve_layers") + 1 == names.index("deformrt.inspect_layers")
+    assert names[-1] == "deformrt.clear_results"  # destructive: last, apart
+    assert names.index("deformrt.bake_frames") > names.index("deformrt.inspect_layers")
+    assert all(text != "" for _, text in ops)  # every button says what it does
+
+
+def test_a_long_report_is_wrapped_to_the_sidebar(extension, tubes):
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    message = json.loads(bpy.context.scene.deformrt.last_report)["message"]
+    assert len(message) > 60
+    labels = [d[1] for d in draw(extension, "DEFORMRT_PT_resolve") if d[0] == "label" and d[1]]
+    assert all(len(t) <= 60 for t in labels)  # no region in background: 60 characters
+    assert " ".join(labels).replace("  ", " ").find(message[:40]) >= 0
+
+
+def test_the_jellyfish_has_a_tab_of_its_own(extension):
+    panels = importlib.import_module(f"{extension.__name__}.addon.ui.panels")
+    assert panels.DEFORMRT_PT_jellyfish.bl_category != panels.DEFORMRT_PT_layers.bl_category
