@@ -62,10 +62,10 @@ def main():
         table(["method", *[f"best after {n}" for n in CHECKPOINTS], "cycles", "seconds", "path / diameter of best"],
               rows),
         "",
-        f"The pool against one process (ga-sa, thesis 0, identical result): {serial.seconds:.1f} s -> "
+        f"The pool against one process (ga-sa, seed 0, identical result): {serial.seconds:.1f} s -> "
         f"{pooled.seconds:.1f} s ({serial.seconds / pooled.seconds:.2f}x on 2 cores).",
         "",
-        f"At the thesis' resolution (100 x 100, 14 substeps) ga-sa thesis 0 took {full_s:.0f} s for "
+        f"At the thesis' resolution (100 x 100, 14 substeps) ga-sa seed 0 took {full_s:.0f} s for "
         f"{full.evaluations} cycles ({full.stopped}); the thesis: about 10 minutes on one 2008 core for its "
         f"whole optimisation. Best: fitness {full.fitness:+.3f}, {describe(full.creature, seed_cfg)}, path "
         f"{full.cycle.path_m / seed_cfg.bell.diameter:.4f} diameters per cycle "
