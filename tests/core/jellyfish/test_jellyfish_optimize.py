@@ -121,7 +121,7 @@ def test_an_address_with_no_scheduler_is_refused_in_bounded_time_and_leaves_no_t
 
 @pytest.mark.parametrize("seed, generations", [(0, 1), (1, 3), (2, 3)])
 def test_the_reported_creature_swims_what_was_reported_for_it(seed, generations):
-    # the search overwrites its population in place (thesis 0: the best parent loses its
+    # the search overwrites its population in place (seed 0: the best parent loses its
     # Boltzmann trial to a worse child); the kept best must not change with it
     r = optimize(CFG, seed=seed, population=4, generations=generations, workers=1)
     replay = simulate_cycle(r.creature, CFG, scales=r.scales)
