@@ -13,7 +13,7 @@ import numpy as np
 import trimesh
 
 from ...core.geometry.cache import Cache
-from ...core.geometry.vectors import cross, norms, rows
+from ...core.geometry.vectors import cross, norms, rows, size_of
 from ...core.layering import metrics
 from ...core.layering.covered_skin import covered_faces
 from ...core.layering.resolve import resolve_layers
@@ -321,7 +321,7 @@ def _write_covered_skin(scene, job: ResolveJob, result) -> int:
     # or one in (under a collar that stands off the neck the skin stays, else one sees into the
     # garment); and the skin within 1% of the body's size (2 cm on a person) of an opening stays
     gap = result.stats["gap"]
-    size = float(np.linalg.norm(np.ptp(a.vertices, axis=0)))
+    size = size_of(a.vertices)
     body_faces = a.triangles[:, ::-1] if result.stats.get("body_inside_out") else a.triangles  # as the resolve took it
     covered = covered_faces(a.vertices, body_faces, worn, 3.0 * gap, gap, 0.01 * size)
     hidden = np.ones(a.n_polygons, dtype=bool)  # a polygon goes when every triangle of it is covered

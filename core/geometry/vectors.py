@@ -53,3 +53,16 @@ def box(*arrays) -> tuple[np.ndarray, np.ndarray]:
 
 
 __all__ = ["box", "cross", "norms", "rows", "unit"]
+
+
+def size_of(vertices) -> float:
+    """The diagonal of the box around the points in their own principal axes: a size that does
+    not change when the scene is turned (an axis-aligned box's diagonal grows by up to 70%), and
+    equals the axis-aligned one for a figure standing along the axes."""
+    v = np.asarray(vertices, dtype=np.float64)
+    if len(v) < 2:
+        return 0.0
+    centred = v - v.mean(axis=0)
+    _, axes = np.linalg.eigh(centred.T @ centred)
+    return float(np.linalg.norm(np.ptp(centred @ axes, axis=0)))
+

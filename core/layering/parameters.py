@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from ..geometry.vectors import box
+from ..geometry.vectors import box, size_of
 from .segmentation import Scheme, get_scheme
 
 KNOWN = frozenset({"offset", "probe_distance", "garment_segments", "global_normals", "boundary_pass", "push_behind",
@@ -93,7 +93,7 @@ class LayeringParameters:
     one_part: bool  # every part meets every other: traced as one
     probe_given: np.ndarray | None  # l_s per part asked for, NaN: the part's default; None: all default
     segment_margin: float
-    diagonal: float  # of the body's box
+    diagonal: float  # of the body's box in its principal axes (core.geometry.vectors.size_of)
     garment_segments: list
     global_normals: list
     correspondence: list
@@ -141,8 +141,7 @@ class LayeringParameters:
             if links.shape != (n_seg, n_seg):
                 raise ValueError(f"segment_links must be ({n_seg}, {n_seg}) booleans, got shape {links.shape}")
             links = links | links.T | np.eye(n_seg, dtype=bool)
-        body_lo, body_hi = box(bv)
-        diag = float(np.linalg.norm(body_hi - body_lo))
+        diag = size_of(bv)  # turning the scene must not change the defaults taken from it
         if diag <= 0:
             raise ValueError("body has zero size")
         d = float(params.get("offset", 1e-3 * diag))

@@ -44,7 +44,7 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         Without it, each connected piece of the body mesh is a part.
     params:
         offset (d, scene units): gap left behind a higher layer; default 0.1% of the
-            body's bounding-box diagonal (about 2 mm on a 1.8 m figure).
+            body's size (the diagonal of its box in its own axes: about 2 mm on a 1.8 m figure).
         probe_distance (l_s): scalar, or one value per segment id (NaN: that part's
             default). Default: with
             body_segments, each part's median local radius (half the chord through the
