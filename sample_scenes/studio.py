@@ -1,6 +1,9 @@
 """Scene plumbing shared by the builders: empty scene, materials, camera, lights, Cycles."""
 
+import contextlib
 import math
+import os
+import sys
 
 import bpy
 from mathutils import Vector
@@ -54,21 +57,45 @@ def camera_and_lights(scene, target=(0, 0, 1), distance=3.0, elevation_deg=15.0,
     return cam
 
 
-def render_cycles(scene, filepath, resolution=(480, 480), samples=16):
-    """Render the scene camera to a PNG with Cycles on the CPU; returns seconds taken."""
+def render_cycles(scene, filepath, resolution=(480, 480), samples=16, denoise=False, quiet=False):
+    """Render the scene camera to a PNG with Cycles on the CPU; returns seconds taken. ``denoise``:
+    OpenImageDenoise, clean at a few samples; ``quiet``: without Blender's line per render tile."""
     import time
 
     scene.render.engine = "CYCLES"
     scene.cycles.device = "CPU"
     scene.cycles.samples = samples
-    scene.cycles.use_denoising = False
+    scene.cycles.use_denoising = denoise
+    if denoise:
+        scene.cycles.denoiser = "OPENIMAGEDENOISE"
     scene.render.resolution_x, scene.render.resolution_y = resolution
     scene.render.resolution_percentage = 100
     scene.render.image_settings.file_format = "PNG"
     scene.render.filepath = str(filepath)
     start = time.perf_counter()
-    bpy.ops.render.render(write_still=True)
+    with _silent_stdout() if quiet else _nothing():
+        bpy.ops.render.render(write_still=True)
     return time.perf_counter() - start
+
+
+@contextlib.contextmanager
+def _nothing():
+    yield
+
+
+@contextlib.contextmanager
+def _silent_stdout():
+    """Blender's own output (a "Fra:" line per tile) to nowhere, at the file descriptor: it
+    writes from C, past sys.stdout."""
+    sys.stdout.flush()
+    kept = os.dup(1)
+    with open(os.devnull, "w") as null:
+        os.dup2(null.fileno(), 1)
+        try:
+            yield
+        finally:
+            os.dup2(kept, 1)
+            os.close(kept)
 
 
 def render_passes(scene, folder, passes=("Image",)):

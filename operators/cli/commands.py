@@ -55,6 +55,8 @@ def _cmd_demo(args) -> int:
 
     out = Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
+    progress = _Progress(5)
+    progress(f"building the {args.scene} scene")
     t0 = time.perf_counter()
     catalog.SCENES[args.scene][0](args.seed)
     build_s = time.perf_counter() - t0
@@ -70,10 +72,13 @@ def _cmd_demo(args) -> int:
     arrays, layers_before = evaluated_layers()
     cross_before = metrics.layer_crossings(layers_before)
     size = (args.width, args.height)
-    render_before_s = studio.render_cycles(scene, out / "before.png", resolution=size, samples=args.samples)
+    progress(f"rendering before.png ({args.width}x{args.height}, {args.samples} samples, denoised)")
+    render_before_s = studio.render_cycles(scene, out / "before.png", resolution=size, samples=args.samples,
+                                           denoise=True, quiet=True)
 
     # what an artist or a pipeline runs: the operator, which leaves a DeformRT modifier on
     # each garment; the renders and metrics below read what Blender evaluates afterwards
+    progress("resolving the layers (deformrt.resolve_layers)")
     t0 = time.perf_counter()
     if bpy.ops.deformrt.resolve_layers() != {"FINISHED"}:
         raise RuntimeError("deformrt.resolve_layers did not finish")
@@ -81,7 +86,12 @@ def _cmd_demo(args) -> int:
     report = reports.read(scene)
     _, layers_after = evaluated_layers()
     cross_after = metrics.layer_crossings(layers_after)
-    render_after_s = studio.render_cycles(scene, out / "after.png", resolution=size, samples=args.samples)
+    progress("rendering after.png")
+    render_after_s = studio.render_cycles(scene, out / "after.png", resolution=size, samples=args.samples,
+                                          denoise=True, quiet=True)
+    progress("measuring poke-through and saving scene.blend")
+    # the resolved scene, to open in Blender: the result renders there with or without DeformRT
+    bpy.ops.wm.save_as_mainfile(filepath=str(out / "scene.blend"), check_existing=False)
     cams = metrics.camera_ring(*metrics.layer_bounds(layers_before), views=8, resolution=96)
     poke_before = metrics.poke_through(layers_before, cameras=cams)[0]
     poke_after = metrics.poke_through(layers_after, cameras=cams)[0]
@@ -124,14 +134,35 @@ def _cmd_demo(args) -> int:
         f"{int(np.triu(cross_before).sum()):,} before, {int(np.triu(cross_after).sum()):,} after. Body parts: "
         f"{report.parts}.",
         "",
+        "Per object, a crossing edge is counted in the rows of both objects it joins (the headline counts it "
+        "once). The outermost garment is never cut and moves only where it lay on or in the body (lifted off it).",
+        "",
         "Renders: before.png (as fitted one by one), after.png (resolved; the garments' meshes are unchanged, "
-        "a DeformRT modifier shows the result).",
+        "a DeformRT modifier shows the result). scene.blend: the resolved scene, to open in Blender.",
     ]
     table = "\n".join(lines)
     (out / "metrics.md").write_text(table + "\n")
+    progress.done()
     print(table)
-    print(f"\nwrote {out / 'before.png'}, {out / 'after.png'} and {out / 'metrics.md'}")
+    print(f"\nwrote {out / 'before.png'}, {out / 'after.png'}, {out / 'metrics.md'} and {out / 'scene.blend'}")
     return 0
+
+
+class _Progress:
+    """One line that says which step runs, rewritten in place on a terminal (a line per step in a log)."""
+
+    def __init__(self, steps: int):
+        self.steps, self.step, self.start = steps, 0, time.perf_counter()
+        self.tty = sys.stdout.isatty()
+
+    def __call__(self, what: str) -> None:
+        self.step += 1
+        line = f"[{self.step}/{self.steps}] {what} ({time.perf_counter() - self.start:.0f} s)"
+        print(f"\r\033[K{line}" if self.tty else line, end="" if self.tty else "\n", flush=True)
+
+    def done(self) -> None:
+        line = f"done in {time.perf_counter() - self.start:.0f} s"
+        print(f"\r\033[K{line}" if self.tty else line, flush=True)
 
 
 def _cmd_scenes(args) -> int:
