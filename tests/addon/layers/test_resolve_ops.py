@@ -373,6 +373,15 @@ def test_a_body_whose_faces_point_inward_is_resolved_as_the_body_it_is(extension
         np.testing.assert_allclose(evaluated(o)[0], v, rtol=0, atol=1e-12)  # its triangles now split otherwise
 
 
+def test_garments_far_from_the_body_are_named_in_the_report(extension, tubes):
+    body, garments = tubes
+    for g in garments:
+        g.location.x += 0.6  # off the body, still round each other
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    message = json.loads(bpy.context.scene.deformrt.last_report)["message"]
+    assert "garment points lie farther from the body than the probe reaches" in message
+
+
 def test_linked_garments_are_refused_by_name_and_nothing_is_added(extension, tubes, tmp_path):
     """Garments linked from another file (not overridden) cannot take a result: Resolve says which
     and what to do, and leaves no data behind."""
