@@ -466,11 +466,14 @@ def inspect_scene(scene) -> LayersReport:
             continue
         d = metrics.distortion(a.vertices, a.vertices + off @ a.matrix_world[:3, :3].T, a.triangles)
         report.max_move_m = max(report.max_move_m, d["max_move"])
-        report.max_stretch = max(report.max_stretch, d["max_stretch"])
+        if d["max_stretch"] > report.max_stretch:
+            report.max_stretch, worst = d["max_stretch"], (obj.name, d["p99_stretch"])
+    stretch = f"max edge stretch {report.max_stretch:.2f}x"
+    if report.max_stretch > 1.0:  # where, and whether it is a few edges (a seam pulled in) or the cloth
+        stretch += f" on {worst[0]} (99% of its edges {worst[1]:.2f}x or less)"
     report.message = (f"Crossing edges {report.crossings_before:,} -> {report.crossings_after:,}, "
                       f"poke-through {100 * report.poke_through_before:.2f}% -> "
-                      f"{100 * report.poke_through_after:.2f}%, max move {1000 * report.max_move_m:.1f} mm, "
-                      f"max edge stretch {report.max_stretch:.2f}x")
+                      f"{100 * report.poke_through_after:.2f}%, max move {1000 * report.max_move_m:.1f} mm, {stretch}")
     if stale:
         report.message += f"; out of date, shown as fitted: {', '.join(g.name for g, _ in stale)}"
     return report

@@ -179,22 +179,25 @@ def new_holes(layers_before, layers_after, cameras=None):
 
 
 def distortion(vertices_before, vertices_after, faces):
-    """Displacement (mean, max, max relative to the garment's size) and max edge stretch (new/old)."""
+    """Displacement (mean, max, max relative to the garment's size) and edge stretch (new/old):
+    the largest and the 99th percentile (one badly stretched edge in a seam against the whole)."""
     v0 = np.asarray(vertices_before, dtype=np.float64)
     v1 = np.asarray(vertices_after, dtype=np.float64)
     if not len(v0):
-        return {"mean_move": 0.0, "max_move": 0.0, "max_move_rel": 0.0, "max_stretch": 1.0}
+        return {"mean_move": 0.0, "max_move": 0.0, "max_move_rel": 0.0, "max_stretch": 1.0, "p99_stretch": 1.0}
     move = np.linalg.norm(v1 - v0, axis=1)
     size = float(np.linalg.norm(np.ptp(v0, axis=0))) or 1.0
     e = unique_edges(faces)
-    stretch = 1.0
+    stretch = p99 = 1.0
     if len(e):
         l0 = np.linalg.norm(v0[e[:, 0]] - v0[e[:, 1]], axis=1)
         l1 = np.linalg.norm(v1[e[:, 0]] - v1[e[:, 1]], axis=1)
         ok = l0 > 0
-        stretch = float((l1[ok] / l0[ok]).max(initial=1.0))
+        ratio = l1[ok] / l0[ok]
+        stretch = float(ratio.max(initial=1.0))
+        p99 = float(np.percentile(ratio, 99)) if len(ratio) else 1.0
     return {"mean_move": float(move.mean()), "max_move": float(move.max()), "max_move_rel": float(move.max() / size),
-            "max_stretch": stretch}
+            "max_stretch": stretch, "p99_stretch": p99}
 
 
 def removed_area_share(vertices, faces, removed) -> float:

@@ -422,6 +422,8 @@ def test_inspect_measures_before_and_after(extension, tubes):
     assert report["still_crossing"] == []
     # the move it measures from the shown geometry is the move the resolve reported
     assert report["max_move_m"] == pytest.approx(max(moved), rel=1e-4)
+    # the worst stretch is placed on a garment and set against the rest of its edges
+    assert f"max edge stretch {report['max_stretch']:.2f}x on {shirt.name} (99% of its edges" in report["message"]
 
 
 def _attribute(obj, name):

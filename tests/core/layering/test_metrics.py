@@ -99,6 +99,21 @@ def test_distortion_of_a_uniform_scale():
     assert out["max_stretch"] == pytest.approx(1.1)
     assert out["max_move"] == pytest.approx(0.1)
     assert out["max_move_rel"] == pytest.approx(0.1 / np.linalg.norm(np.ptp(m.vertices, axis=0)))
+    assert out["p99_stretch"] == pytest.approx(1.1)
+
+
+def test_one_pulled_vertex_stretches_its_edges_not_the_cloth():
+    """The largest stretch is the pulled vertex's edges; 99% of the edges are as they were."""
+    from core.layering.metrics import distortion, unique_edges
+
+    m = trimesh.creation.icosphere(subdivisions=3)
+    after = m.vertices.copy()
+    after[0] *= 1.5
+    out = distortion(m.vertices, after, m.faces)
+    e = unique_edges(m.faces)
+    l0, l1 = (np.linalg.norm(v[e[:, 0]] - v[e[:, 1]], axis=1) for v in (m.vertices, after))
+    assert out["max_stretch"] == pytest.approx((l1 / l0).max())
+    assert out["max_stretch"] > 2.0 and out["p99_stretch"] == pytest.approx(1.0)
 
 
 def test_removed_area_share_of_half_a_square():
