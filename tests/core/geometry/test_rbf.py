@@ -82,10 +82,16 @@ def test_coincident_centres_with_equal_values_are_merged():
     np.testing.assert_allclose(s(q), VolumeSpline(c, v)(q), atol=1e-10)
 
 
-def test_coincident_centres_with_different_values_are_refused():
+@pytest.mark.parametrize("column", [0, 1])
+def test_coincident_centres_with_different_values_are_refused(column):
+    """Values that differ in every column, or in one only: either is a contradiction."""
     c, v, _ = _case(2, n=30)
     with pytest.raises(ValueError, match="coincide"):
         VolumeSpline(np.vstack([c, c[:1]]), np.vstack([v, v[:1] + 1.0]))
+    other = v[:1].copy()
+    other[0, column] += 1.0
+    with pytest.raises(ValueError, match="coincide"):
+        VolumeSpline(np.vstack([c, c[:1]]), np.vstack([v, other]))
 
 
 def test_collinear_and_coplanar_centres_are_refused():

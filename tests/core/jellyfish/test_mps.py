@@ -17,10 +17,12 @@ def test_weight_shape():
     assert weight(RE, RE) == 0.0 and weight(2 * RE, RE) == 0.0
 
 
-def test_lambda_is_the_seeds_31_over_140():
-    num = quad(lambda r: weight(r, 1.0) * r**3, 0, 1, points=[0.5])[0]
-    den = quad(lambda r: weight(r, 1.0) * r, 0, 1, points=[0.5])[0]
-    assert lambda_continuous(1.0) == pytest.approx(num / den, rel=1e-12)
+@pytest.mark.parametrize("re", [1.0, 0.3, 2.5])
+def test_lambda_is_the_seeds_31_over_140(re):
+    """At any radius (a scaling wrong by a power of r_e passes at r_e = 1 only)."""
+    num = quad(lambda r: weight(r, re) * r**3, 0, re, points=[0.5 * re])[0]
+    den = quad(lambda r: weight(r, re) * r, 0, re, points=[0.5 * re])[0]
+    assert lambda_continuous(re) == pytest.approx(num / den, rel=1e-12)
 
 
 def _interior_lattice(n=20):
