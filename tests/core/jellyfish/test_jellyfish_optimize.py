@@ -119,6 +119,22 @@ def test_an_address_with_no_scheduler_is_refused_in_bounded_time_and_leaves_no_t
         closed.close()
 
 
+def test_a_search_over_several_cycles_scores_each_creature_over_all_of_them():
+    """config.cycles = 2: the fitness reported is the one two cycles in a row give, on scales from
+    the default creature's two cycles."""
+    from dataclasses import replace
+
+    from core.jellyfish import reference_scales, simulate_cycles
+
+    cfg = replace(CFG, cycles=2)
+    r = optimize(cfg, seed=1, population=4, generations=1, workers=1)
+    assert r.scales == reference_scales(CFG, cycles=2)
+    replay = simulate_cycles(r.creature, CFG, 2, scales=r.scales)
+    assert len(replay.path_per_cycle_m) == 2 and replay.fitness == pytest.approx(r.fitness, rel=1e-9)
+    with pytest.raises(ValueError, match="cycles"):
+        replace(CFG, cycles=0)
+
+
 @pytest.mark.parametrize("seed, generations", [(0, 1), (1, 3), (2, 3)])
 def test_the_reported_creature_swims_what_was_reported_for_it(seed, generations):
     # the search overwrites its population in place (seed 0: the best parent loses its

@@ -66,6 +66,7 @@ def test_the_default_creature_swims_forward_cycle_after_cycle():
     r = simulate_cycles(default_creature(cfg), cfg, 6)
     assert len(r.path_per_cycle_m) == 6 and (r.path_per_cycle_m > 0).all()
     assert r.path_m == pytest.approx(r.path_per_cycle_m.sum(), rel=1e-12)
+    assert r.energy_loss == pytest.approx(r.energy_loss_per_cycle.sum(), rel=1e-12)
     assert r.swum[-1] == pytest.approx(r.path_m, rel=1e-12) and len(r.speed) == 6 * cfg.substeps
     # it does not stall in its own wake: no cycle swims less than half the first
     assert r.path_per_cycle_m.min() > 0.5 * r.path_per_cycle_m[0]
