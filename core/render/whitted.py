@@ -65,6 +65,19 @@ class Image:
     stats: dict = field(default_factory=dict)
 
 
+def fresnel(cos_i, ior, entering):
+    """(eta, cos of the refracted angle, reflected share) of light meeting a surface of index
+    ``ior`` at cos ``cos_i`` (eq. 2.12-2.13), from outside where ``entering``: Schlick's
+    approximation on the side of the lower index, and all of it reflected past the critical angle."""
+    eta = np.where(entering, 1.0 / ior, ior)
+    sin2_t = eta**2 * np.maximum(0.0, 1 - cos_i**2)
+    tir = sin2_t > 1
+    f0 = ((1 - ior) / (1 + ior)) ** 2
+    cos_t = np.sqrt(np.maximum(0.0, 1 - sin2_t))
+    cos_f = np.where(entering, cos_i, cos_t)
+    return eta, cos_t, np.where(tir, 1.0, f0 + (1 - f0) * (1 - cos_f) ** 5)
+
+
 def camera_rays(matrix_world, fov_y, width, height, shift=(0.0, 0.0), ortho_height=None):
     """Pinhole rays through pixel centres, rows top to bottom; the camera looks down its -z.
     ``shift``: where the image's centre lies on the image plane at distance 1 (a shifted lens,
@@ -215,15 +228,8 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
         if glows:  # emission on top, whatever share of the light the surface reflects or lets through
             seen += weight * emission[mat]
         _add(colour, pixel, seen, once)
-        # Fresnel for the transmissive share (eq. 2.12-2.13); total internal reflection reflects all
-        eta = np.where(entering, 1.0 / ior, ior)
         cos_i = -np.einsum("ij,ij->i", nrm, d)
-        sin2_t = eta**2 * np.maximum(0.0, 1 - cos_i**2)
-        tir = sin2_t > 1
-        f0 = ((1 - ior) / (1 + ior)) ** 2
-        cos_t = np.sqrt(np.maximum(0.0, 1 - sin2_t))
-        cos_f = np.where(entering, cos_i, cos_t)  # Schlick on the side of the lower index
-        fres = np.where(tir, 1.0, f0 + (1 - f0) * (1 - cos_f) ** 5)
+        eta, cos_t, fres = fresnel(cos_i, ior, entering)
         k_reflect = (1 - trans) * mirror + trans * fres
         k_refract = trans * (1 - fres)
         refl_d = d + 2 * cos_i[:, None] * nrm

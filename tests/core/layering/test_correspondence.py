@@ -141,3 +141,27 @@ def test_nearest_point_over_many_pieces_on_two_threads_matches_trimesh(monkeypat
     np.testing.assert_allclose(np.linalg.norm(pts - ours.points(v, f), axis=1), ref_d, atol=tol)
     np.testing.assert_allclose(ours.distance, ref_d, atol=tol)
     assert np.allclose(ours.bary.sum(1), 1) and (ours.bary >= -1e-12).all()
+
+
+@pytest.mark.parametrize("angle_deg", [0.5, 2.0, 5.0, 8.0])
+def test_slivers_are_measured_to_their_plane(angle_deg):
+    """Thin triangles (one corner angle of a few degrees) with points over their inside: the
+    nearest point is in the plane, not on an edge (trimesh's own query as the reference)."""
+    rng = np.random.default_rng(int(angle_deg * 10))
+    n = 300
+    a = rng.normal(size=(n, 3))
+    u = rng.normal(size=(n, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    w = np.cross(u, rng.normal(size=(n, 3)))
+    w /= np.linalg.norm(w, axis=1, keepdims=True)
+    theta = np.radians(angle_deg)
+    b = a + u
+    c = a + 1.2 * (np.cos(theta) * u + np.sin(theta) * w)
+    inside = a + 0.5 * (b - a) * 0.6 + 0.5 * (c - a) * 0.6
+    normal = np.cross(b - a, c - a)
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    p = inside + normal * rng.uniform(0.01, 0.2, (n, 1))
+    wts = closest_point_on_triangles(p, a, b, c)
+    ours = wts[:, :1] * a + wts[:, 1:2] * b + wts[:, 2:] * c
+    ref = trimesh.triangles.closest_point(np.stack([a, b, c], axis=1), p)
+    np.testing.assert_allclose(ours, ref, atol=1e-9)

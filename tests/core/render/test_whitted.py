@@ -593,3 +593,41 @@ def test_flat_corner_normals_shade_each_face_by_its_own_normal():
     assert np.abs(smooth.colour[shown] - img.colour[shown]).max() > 0.05
     with pytest.raises(ValueError, match="corner_normals"):
         render(scene, [Material()], sun, o, d, corner_normals=[flat[:-1]])
+
+
+def _exact_fresnel(cos_i, n1, n2):
+    """Unpolarised reflectance from the Fresnel equations (the average of s and p)."""
+    sin_t = n1 / n2 * np.sqrt(np.maximum(0.0, 1 - cos_i**2))
+    if sin_t >= 1:
+        return 1.0
+    cos_t = np.sqrt(1 - sin_t**2)
+    rs = ((n1 * cos_i - n2 * cos_t) / (n1 * cos_i + n2 * cos_t)) ** 2
+    rp = ((n1 * cos_t - n2 * cos_i) / (n1 * cos_t + n2 * cos_i)) ** 2
+    return 0.5 * (rs + rp)
+
+
+@pytest.mark.parametrize("ior", [1.33, 1.5, 2.4])
+def test_fresnel_follows_the_fresnel_equations_and_reflects_all_past_the_critical_angle(ior):
+    """Against the exact (unpolarised) reflectance: equal at normal incidence, within Schlick's own
+    error at oblique angles for water (a wrong power or cosine passes at normal incidence only),
+    rising to all of it at the critical angle from inside and staying there past it; Snell's law
+    for the refracted ray."""
+    from core.render.whitted import fresnel
+
+    angles = np.radians(np.arange(0.0, 89.5, 0.5))
+    cos_i = np.cos(angles)
+    for entering in (True, False):
+        n1, n2 = (1.0, ior) if entering else (ior, 1.0)
+        eta, cos_t, got = fresnel(cos_i, np.full_like(cos_i, ior), np.full(len(cos_i), entering))
+        want = np.array([_exact_fresnel(c, n1, n2) for c in cos_i])
+        assert got[0] == pytest.approx(want[0], abs=1e-12)
+        critical = np.arcsin(1 / ior) if not entering else np.pi / 2
+        np.testing.assert_array_equal(got[angles > critical + 1e-9], 1.0)
+        ok = angles < critical - 1e-9  # Snell: n1 sin i = n2 sin t
+        np.testing.assert_allclose(n1 * np.sin(angles[ok]), n2 * np.sqrt(1 - cos_t[ok] ** 2), atol=1e-12)
+        if not entering:  # no jump into total reflection: just short of it, nearly all is reflected
+            just = np.cos([critical - 1e-5])
+            assert fresnel(just, np.array([ior]), np.array([False]))[2][0] > 0.95
+        if ior == 1.33:
+            near = angles < (np.radians(60) if entering else 0.85 * critical)
+            assert np.abs(got - want)[near].max() < 0.012
