@@ -123,3 +123,40 @@ def test_removed_area_share_of_half_a_square():
     f = np.array([[0, 1, 2], [0, 2, 3]])
     assert removed_area_share(v, f, np.array([True, False])) == pytest.approx(0.5)
     assert removed_area_share(v, f[:0], np.zeros(0, bool)) == 0.0
+
+
+def _down_rays(n=12, size=0.6, z=1.0):
+    s = np.linspace(-size / 2, size / 2, n)
+    x, y = np.meshgrid(s, s)
+    o = np.column_stack([x.ravel(), y.ravel(), np.full(x.size, z)])
+    return o, np.tile([0.0, 0.0, -1.0], (len(o), 1))
+
+
+def test_poke_through_takes_the_higher_layers_given_normals_not_their_winding_nor_another_layers():
+    """A lower sheet 1 cm over a higher one, seen from above: it pokes through where the higher
+    one faces the camera. The higher sheet is wound facing away, but its given normals face up;
+    the lower one's given normals face down (a lookup in the wrong layer reads those)."""
+    from core.layering.metrics import poke_through
+    from tests.core.layered_cases import sheet
+
+    lower = sheet(size=1.0, n=20, z=0.01)
+    v, f = sheet(size=1.0, n=20, z=0.0)
+    higher = (v, f[:, ::-1])  # winding facing down
+    up, down = np.tile([0.0, 0.0, 1.0], (len(v), 1)), np.tile([0.0, 0.0, -1.0], (len(v), 1))
+    cams = [_down_rays()]
+    share, poked, covered = poke_through([lower, higher], normals=[down, up], depth=0.05, cameras=cams)
+    assert covered == 144 and poked == covered and share == 1.0
+    assert poke_through([lower, higher], depth=0.05, cameras=cams)[1] == 0  # by winding: it faces away
+    assert poke_through([lower, higher], normals=[up, down], depth=0.05, cameras=cams)[1] == 0
+
+
+def test_a_higher_layer_revealed_by_removing_faces_is_no_hole_and_the_background_is():
+    from core.layering.metrics import new_holes
+    from tests.core.layered_cases import sheet
+
+    lower, higher = sheet(size=1.0, n=20, z=0.01), sheet(size=1.0, n=20, z=0.0)
+    cams = [_down_rays()]
+    cut = (lower[0], lower[1][: len(lower[1]) // 2])  # half the lower sheet's triangles gone
+    assert new_holes([lower, higher], [cut, higher], cameras=cams) == 0.0  # the higher one shows
+    alone = new_holes([lower, higher], [cut, (higher[0], higher[1][:0])], cameras=cams)
+    assert 0.3 < alone < 0.7  # with nothing under, about half the pixels now show the background
