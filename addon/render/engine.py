@@ -54,9 +54,11 @@ class FrameTracer:
         scene = depsgraph.scene
         settings = scene.deformrt
         t0 = time.perf_counter()
-        self.scene, materials, slots, uvs, shading, self.pass_index, self.kept, self.warnings, unseen = scene_arrays(
+        self.scene, materials, slots, uvs, shading, self.pass_index, self.kept, self.warnings, hidden = scene_arrays(
             depsgraph, settings.render_layered)
+        unseen, shadowless = hidden
         self._unseen = np.array(unseen, bool) if any(unseen) else None  # hidden from the camera
+        self._shadowless = np.array(shadowless, bool) if any(shadowless) else None  # casting no shadow
         self.surfaces = Surfaces.build(self.scene, materials, slots, uvs, shading)  # once for every band
         self.seconds = {"read_build_s": time.perf_counter() - t0, "trace_s": 0.0}
         m = np.array(scene.camera.matrix_world)
@@ -86,7 +88,8 @@ class FrameTracer:
         sl = slice(start * self.width, stop * self.width)
         img = render(self.scene, self.surfaces, self.lights, self.origins[sl], self.directions[sl],
                      background=self.sky, ambient=np.asarray(self.sky), max_depth=self.max_depth,
-                     layered=self.layered, clip=(self._clip[0][sl], self._clip[1][sl]), unseen=self._unseen)
+                     layered=self.layered, clip=(self._clip[0][sl], self._clip[1][sl]), unseen=self._unseen,
+                     shadowless=self._shadowless)
         self.seconds["trace_s"] += time.perf_counter() - t0
         return img, img.depth * self._to_depth[sl]
 

@@ -97,6 +97,7 @@ class LayeredScene:
         self._uncovered = None  # built on the first layered shadow ray
         self._past_pokes = {}  # per layer a shadow ray leaves: _poke_bounds
         self._seen_parts = {}  # per mask of objects camera rays pass through: _seen_part
+        self._without = {}  # per mask of objects that cast no shadow: without
 
     def split(self, face):
         """Global face ids -> (object, face within it); -1 for both on a miss. Only the hits are
@@ -254,6 +255,22 @@ class LayeredScene:
         if key not in self._seen_parts:
             self._seen_parts[key] = self._scene_of([i for i, hidden in enumerate(key) if not hidden])
         return self._seen_parts[key]
+
+    def without(self, hidden):
+        """(this scene without the ``hidden`` objects, the index of each object in it, -1 for the
+        hidden and at the end for "no object"): what shadow rays meet when some objects cast
+        none (Cycles' Ray Visibility > Shadow off). Kept per mask."""
+        key = tuple(bool(x) for x in hidden)
+        if len(key) != len(self.layers):
+            raise ValueError(f"hidden needs one entry per object ({len(self.layers)}), got {len(key)}")
+        if key not in self._without:
+            keep = [i for i, h in enumerate(key) if not h]
+            part = LayeredScene([(self.vertices[i], self.faces[i]) for i in keep], [self.layers[i] for i in keep],
+                                [self.normals[i] for i in keep], [self.probes[i] for i in keep], self.offset)
+            index = np.full(len(key) + 1, -1)
+            index[keep] = np.arange(len(keep))
+            self._without[key] = (part, index)
+        return self._without[key]
 
     def _cover(self, layer):
         """The ray scene of what is worn over ``layer``."""

@@ -137,7 +137,7 @@ class Surfaces:
 
 def render(scene: LayeredScene, materials, lights, origins, directions, background=(0.0, 0.0, 0.0),
            ambient=0.0, max_depth=4, cutoff=0.01, layered=True, face_slots=None, face_uvs=None,
-           corner_normals=None, clip=None, unseen=None) -> Image:
+           corner_normals=None, clip=None, unseen=None, shadowless=None) -> Image:
     """Colour per ray. ``materials`` one per object: a Material, or a list of them that
     ``face_slots`` (per object None or one slot per face; past the last slot, the last) picks
     from face by face; ``face_uvs`` per object None or (faces, 3, 2) UVs of each face's corners,
@@ -149,7 +149,8 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
     rays see anything, as a camera's clipping planes cut what its rays see and nothing else:
     what they reflect, refract or are shadowed by is not clipped. Depth is from the origins.
     ``unseen``: a bool per object these rays pass through (hidden from the camera, as Cycles'
-    Ray Visibility > Camera off); it still shows in reflections and casts its shadows."""
+    Ray Visibility > Camera off); it still shows in reflections and casts its shadows.
+    ``shadowless``: a bool per object that casts no shadow (Ray Visibility > Shadow off)."""
     surfaces = (materials if isinstance(materials, Surfaces)
                 else Surfaces.build(scene, materials, face_slots, face_uvs, corner_normals))
     mats, face_material = surfaces.materials, surfaces.face_material
@@ -180,6 +181,8 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
     glows = bool(emission.any())
     props = {k: np.array([getattr(m, k) for m in mats], float)
              for k in ("transmission", "mirror", "ior", "specular", "shininess")}
+    # what shadow rays meet, and each object's index there
+    blockers = (scene, None) if shadowless is None or not np.any(shadowless) else scene.without(shadowless)
     leaving = np.zeros(n)  # secondary rays start on their surface and skip it
     once = True  # each pixel at most once in the batch (camera rays), so no np.add.at needed
     while len(pixel):
@@ -223,7 +226,7 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
                 uv = _corner_blend(uv_table[scene.first_face[obj[at]] + face[at]], bary[at])
                 albedo_hit[at] = _bilinear(mats[i].texture, uv)
         colour_local = _direct(scene, lights, p, start, nrm, d, albedo_hit, props["specular"][mat],
-                               props["shininess"][mat], ambient, stats, layered, obj)
+                               props["shininess"][mat], ambient, stats, layered, obj, blockers)
         seen = weight * local[:, None] * colour_local
         if glows:  # emission on top, whatever share of the light the surface reflects or lets through
             seen += weight * emission[mat]
@@ -370,10 +373,12 @@ def _shadow_origin(scene, obj, face, bary, p, side, corner_normals=None):
     return p - side[:, None] * moved
 
 
-def _direct(scene, lights, p, start, nrm, d, albedo, spec, shine, ambient, stats, layered, obj):
+def _direct(scene, lights, p, start, nrm, d, albedo, spec, shine, ambient, stats, layered, obj, blockers=None):
     """Blinn-Phong from each light that the point sees (shadow rays), plus ambient. In layered
     tracing a covered lower layer casts no shadow: a surface that is not shown must not darken
-    the one shown over it. Shadow rays leave from ``start``."""
+    the one shown over it. Shadow rays leave from ``start``; ``blockers``: (the scene they meet,
+    each object's index in it) when some objects cast no shadow."""
+    blocker, index = blockers if blockers is not None else (scene, None)
     out = ambient * albedo
     for kind, vec, colour, reach, casts in _emitters(lights):
         if kind == "SUN":
@@ -394,8 +399,9 @@ def _direct(scene, lights, p, start, nrm, d, albedo, spec, shine, ambient, stats
             continue
         idx = np.flatnonzero(lit)
         if casts:
-            shadow = scene.blocked(start[idx], to_l[idx], dist[idx] - 2 * scene.eps, layered=layered,
-                                   leaving=obj[idx])
+            leaving = obj[idx] if index is None else index[obj[idx]]
+            shadow = blocker.blocked(start[idx], to_l[idx], dist[idx] - 2 * scene.eps, layered=layered,
+                                     leaving=leaving)
             stats["shadow_rays"] += len(idx)
             idx = idx[~shadow]
         n_i, l_i = rows(nrm, idx), rows(to_l, idx)

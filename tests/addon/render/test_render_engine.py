@@ -319,6 +319,28 @@ def test_an_object_hidden_from_the_camera_still_casts_its_shadow(studio, clean_s
     assert (r < 0.75).sum() > 20 and ((r > 0.85) & (seen == 2)).sum() > 20  # seen past its shadow, too
 
 
+def test_an_object_that_casts_no_shadow_leaves_the_floor_lit_as_cycles_does(studio, clean_scene, tmp_path):
+    """The same ball with Ray Visibility > Shadow off: it is seen, and the floor under it is lit
+    by the sun as everywhere else; Cycles agrees where its shadow was."""
+    scene = _engine(clean_scene)
+    _stage(scene, sun_strength=2.0)
+    bpy.ops.mesh.primitive_plane_add(size=20.0)
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.8, location=(0, 0, 1.5))
+    ball = bpy.context.active_object
+    ball.visible_camera = False  # to see the floor where the shadow would fall
+    shadowed = _render(studio, scene, tmp_path)
+    ball.visible_shadow = False
+    lit = _render(studio, scene, tmp_path)
+    c = ((np.arange(32) + 0.5) / 32 * 2 - 1) * 1.8
+    r = np.hypot(c[None, :], c[::-1, None])
+    np.testing.assert_allclose(shadowed[r < 0.75][:, :3], 0.0, atol=1e-6)
+    np.testing.assert_allclose(lit[..., :3], 2.0 * 0.8 / np.pi, rtol=1e-5)  # lit all over, as the open floor
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples, scene.cycles.filter_width = 4, 0.01
+    cycles = _render(studio, scene, tmp_path)
+    assert cycles[r < 0.75][:, :3].min() > 0.5 * 2.0 * 0.8 / np.pi  # Cycles: no shadow there either
+
+
 def test_a_garment_hidden_from_the_camera_hides_nothing_under_it(studio, clean_scene, tmp_path):
     """The jacket of a poking pair hidden from the camera: the shirt shows wherever it is, as it
     does with the jacket left out of the render (a garment the camera does not see covers
