@@ -56,9 +56,9 @@ class FrameTracer:
         t0 = time.perf_counter()
         self.scene, materials, slots, uvs, shading, self.pass_index, self.kept, self.warnings, hidden = scene_arrays(
             depsgraph, settings.render_layered)
-        unseen, shadowless = hidden
-        self._unseen = np.array(unseen, bool) if any(unseen) else None  # hidden from the camera
-        self._shadowless = np.array(shadowless, bool) if any(shadowless) else None  # casting no shadow
+        # Ray Visibility off for the camera, shadows, glossy and transmission rays: None where all are on
+        self._unseen, self._shadowless, self._unreflected, self._unrefracted = (
+            np.array(mask, bool) if any(mask) else None for mask in hidden)
         self.surfaces = Surfaces.build(self.scene, materials, slots, uvs, shading)  # once for every band
         self.seconds = {"read_build_s": time.perf_counter() - t0, "trace_s": 0.0}
         m = np.array(scene.camera.matrix_world)
@@ -89,7 +89,7 @@ class FrameTracer:
         img = render(self.scene, self.surfaces, self.lights, self.origins[sl], self.directions[sl],
                      background=self.sky, ambient=np.asarray(self.sky), max_depth=self.max_depth,
                      layered=self.layered, clip=(self._clip[0][sl], self._clip[1][sl]), unseen=self._unseen,
-                     shadowless=self._shadowless)
+                     shadowless=self._shadowless, unreflected=self._unreflected, unrefracted=self._unrefracted)
         self.seconds["trace_s"] += time.perf_counter() - t0
         return img, img.depth * self._to_depth[sl]
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..geometry.vectors import norms, rows
 from ..rays.scene import unit_rays
-from .layered_trace import LayeredScene
+from .layered_trace import LayeredScene, Visible
 
 LUMA = np.array([0.299, 0.587, 0.114])  # NTSC luminance weights
 
@@ -137,7 +137,8 @@ class Surfaces:
 
 def render(scene: LayeredScene, materials, lights, origins, directions, background=(0.0, 0.0, 0.0),
            ambient=0.0, max_depth=4, cutoff=0.01, layered=True, face_slots=None, face_uvs=None,
-           corner_normals=None, clip=None, unseen=None, shadowless=None) -> Image:
+           corner_normals=None, clip=None, unseen=None, shadowless=None, unreflected=None,
+           unrefracted=None) -> Image:
     """Colour per ray. ``materials`` one per object: a Material, or a list of them that
     ``face_slots`` (per object None or one slot per face; past the last slot, the last) picks
     from face by face; ``face_uvs`` per object None or (faces, 3, 2) UVs of each face's corners,
@@ -150,7 +151,9 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
     what they reflect, refract or are shadowed by is not clipped. Depth is from the origins.
     ``unseen``: a bool per object these rays pass through (hidden from the camera, as Cycles'
     Ray Visibility > Camera off); it still shows in reflections and casts its shadows.
-    ``shadowless``: a bool per object that casts no shadow (Ray Visibility > Shadow off)."""
+    ``shadowless``: a bool per object that casts no shadow (Ray Visibility > Shadow off);
+    ``unreflected`` and ``unrefracted``: a bool per object that reflected, or refracted, rays pass
+    through (Ray Visibility > Glossy, Transmission off)."""
     surfaces = (materials if isinstance(materials, Surfaces)
                 else Surfaces.build(scene, materials, face_slots, face_uvs, corner_normals))
     mats, face_material = surfaces.materials, surfaces.face_material
@@ -185,8 +188,15 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
     blockers = (scene, None) if shadowless is None or not np.any(shadowless) else scene.without(shadowless)
     leaving = np.zeros(n)  # secondary rays start on their surface and skip it
     once = True  # each pixel at most once in the batch (camera rays), so no np.add.at needed
+    # what each secondary ray is (0 reflected, 1 refracted) and the objects each kind passes through
+    kind = np.zeros(n, np.int8)
+    passes = [None if m is None or not np.any(m) else m for m in (unreflected, unrefracted)]
     while len(pixel):
-        vis = scene.first_visible(o, d, layered=layered, min_dist=leaving, scaled=True, unseen=unseen if once else None)
+        if once or (passes[0] is None and passes[1] is None):
+            vis = scene.first_visible(o, d, layered=layered, min_dist=leaving, scaled=True,
+                                      unseen=unseen if once else None)
+        else:
+            vis = _first_visible_by_kind(scene, o, d, layered, leaving, kind, passes)
         stats["rays"] += len(pixel)
         if first is None:
             if far is not None:
@@ -210,6 +220,7 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
             break
         keep = np.flatnonzero(hit)
         o, d, pixel, weight, depth_of, sigma = (rows(x, keep) for x in (o, d, pixel, weight, depth_of, sigma))
+        kind = kind[keep]
         obj, face, bary, t = (rows(x, keep) for x in (vis.obj, vis.face, vis.bary, vis.t))
         p = o + d * t[:, None]
         nrm = _shading_normal(scene, obj, face, bary, corners)
@@ -240,7 +251,7 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
         next_depth = depth_of + 1
         stats["deepest"] = max(stats["deepest"], int(depth_of.max()))
         batches = []
-        for k, direction, inside in ((k_reflect, refl_d, sigma), (k_refract, refr_d, None)):
+        for bounce, (k, direction, inside) in enumerate(((k_reflect, refl_d, sigma), (k_refract, refr_d, None))):
             w = weight * k[:, None]
             go = (k > 0) & (next_depth <= max_depth)
             important = (w @ LUMA) >= cutoff
@@ -251,15 +262,33 @@ def render(scene: LayeredScene, materials, lights, origins, directions, backgrou
             if inside is None:  # refracted rays enter (take the object's absorption) or leave (none)
                 inside = np.where(entering[:, None], absorb[mat], 0.0)
             go = np.flatnonzero(go)
-            batches.append(tuple(rows(x, go) for x in (p, direction, pixel, w, next_depth, inside)))
+            batches.append((*(rows(x, go) for x in (p, direction, pixel, w, next_depth, inside)),
+                            np.full(len(go), bounce, np.int8)))
         if not batches:
             break
-        o, d, pixel, weight, depth_of, sigma = (np.concatenate(parts) for parts in zip(*batches, strict=True))
+        o, d, pixel, weight, depth_of, sigma, kind = (np.concatenate(parts) for parts in zip(*batches, strict=True))
         absorbing = bool(sigma.any())
         d = d / np.linalg.norm(d, axis=1, keepdims=True)
         leaving = np.full(len(o), scene.eps)
         once = False  # a pixel's reflected and refracted rays travel together
     return Image(colour, first.t if near is None else first.t + near, first.obj, first.fixed, stats)
+
+
+def _first_visible_by_kind(scene, o, d, layered, leaving, kind, passes):
+    """first_visible of reflected (kind 0) and refracted (kind 1) rays, each kind passing through
+    its own objects (``passes``: a mask per kind, or None)."""
+    n = len(o)
+    out = Visible(np.full(n, np.inf), np.full(n, -1), np.full(n, -1), np.zeros((n, 2)), np.zeros(n, bool), 0)
+    for k, mask in enumerate(passes):
+        sel = np.flatnonzero(kind == k)
+        if not len(sel):
+            continue
+        part = scene.first_visible(rows(o, sel), rows(d, sel), layered=layered, min_dist=leaving[sel], scaled=True,
+                                   unseen=mask)
+        out.t[sel], out.obj[sel], out.face[sel], out.bary[sel], out.fixed[sel] = (part.t, part.obj, part.face,
+                                                                              part.bary, part.fixed)
+        out.skipped += part.skipped
+    return out
 
 
 def _material_table(scene, materials, face_slots):

@@ -204,6 +204,35 @@ def test_an_object_unseen_by_the_camera_shows_what_is_behind_it_and_still_shadow
     np.testing.assert_allclose(img.colour, np.tile([0.5, 0.0, 0.0], (len(o), 1)))  # the sheet, in the mirror
 
 
+def test_objects_off_for_glossy_shadow_or_transmission_rays_are_passed_by_those_rays_only():
+    """The sheet the camera does not see, over a mirror floor: with Glossy off it is gone from the
+    mirror (the black world shows); with Shadow off a matte floor under it is lit by the sun; a
+    glass floor seen through (Transmission off for the sheet under it) shows the world, not the sheet."""
+    over, floor = sheet(size=2.0, n=4, z=0.5), sheet(size=2.0, n=4, z=0.0)
+    scene = LayeredScene([over, floor], [None, None])
+    o, d = down_rays(n=3)
+    red = Material(colour=(1, 0, 0))
+    mirror = [red, Material(colour=(0, 0, 0), mirror=1.0)]
+    seen = render(scene, mirror, [], o, d, ambient=0.5, unseen=[True, False])
+    gone = render(scene, mirror, [], o, d, ambient=0.5, unseen=[True, False], unreflected=[True, False])
+    np.testing.assert_allclose(seen.colour, np.tile([0.5, 0.0, 0.0], (len(o), 1)))
+    np.testing.assert_allclose(gone.colour, 0.0)
+    sun = [Light("SUN", (0, 0, -1), (1.0, 1.0, 1.0))]
+    matte = [red, Material(colour=(0, 1, 0))]
+    shaded = render(scene, matte, sun, o, d, unseen=[True, False])
+    lit = render(scene, matte, sun, o, d, unseen=[True, False], shadowless=[True, False])
+    np.testing.assert_allclose(shaded.colour, 0.0)
+    np.testing.assert_allclose(lit.colour, np.tile([0.0, 1.0, 0.0], (len(o), 1)), rtol=1e-9)  # albedo x E cos 0
+    # from below the floor, looking up through a clear glass floor at the sheet over it
+    up = o * [1, 1, -1], -d
+    glass = [red, Material(colour=(1, 1, 1), transmission=1.0, ior=1.0)]
+    through = render(scene, glass, [], *up, ambient=0.5)
+    cut = render(scene, glass, [], *up, ambient=0.5, unrefracted=[True, False])
+    np.testing.assert_allclose(through.colour, np.tile([0.5, 0.0, 0.0], (len(o), 1)), atol=1e-9)
+    np.testing.assert_allclose(cut.colour, 0.0, atol=1e-9)
+    np.testing.assert_array_equal(cut.index, 1)  # the camera still sees the glass
+
+
 def test_z_fighting_sheets_show_only_the_higher_layer():
     v, f = sheet(size=1.0, n=20, z=0.0)
     wiggle = v.copy()
