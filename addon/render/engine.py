@@ -54,8 +54,8 @@ class FrameTracer:
         scene = depsgraph.scene
         settings = scene.deformrt
         t0 = time.perf_counter()
-        self.scene, materials, slots, uvs, shading, self.pass_index, self.kept, self.warnings, hidden = scene_arrays(
-            depsgraph, settings.render_layered)
+        (self.scene, materials, slots, uvs, shading, self.pass_index, self.kept, self.warnings, hidden,
+         self.holdout) = scene_arrays(depsgraph, settings.render_layered)
         # Ray Visibility off for the camera, shadows, glossy and transmission rays: None where all are on
         self._unseen, self._shadowless, self._unreflected, self._unrefracted = (
             np.array(mask, bool) if any(mask) else None for mask in hidden)
@@ -162,6 +162,7 @@ class DEFORMRT_RE_layered(bpy.types.RenderEngine):
             self.end_result(self.begin_result(0, 0, w, h))
             return
         pass_index = np.array([*tracer.pass_index, 0], np.float32)
+        holdout = np.array([*tracer.holdout, False])  # where camera rays first meet a holdout: a hole
         w, h = bw, bh
         transparent = scene.render.film_transparent
         band = max(1, min(h, BAND_PIXELS // max(w, 1)))
@@ -174,7 +175,12 @@ class DEFORMRT_RE_layered(bpy.types.RenderEngine):
             colour = img.colour
             if transparent:  # Film > Transparent: what camera rays see of the world is alpha 0, as in Cycles
                 colour = np.where(hit[:, None], colour, 0.0)
-            planes = {"Combined": np.column_stack([colour, hit if transparent else np.ones(n)]),
+            alpha = hit.astype(float) if transparent else np.ones(n)
+            held = holdout[img.index]
+            if held.any():  # a holdout object cuts a hole, (0, 0, 0, 0), film transparent or not, as in Cycles
+                colour = np.where(held[:, None], 0.0, colour)
+                alpha = np.where(held, 0.0, alpha)
+            planes = {"Combined": np.column_stack([colour, alpha]),
                       "Depth": np.where(hit, depth, BACKGROUND_DEPTH)[:, None],
                       "IndexOB": pass_index[img.index][:, None], FIXED_PASS: img.fixed[:, None]}
             # Blender's rows run bottom-up

@@ -76,14 +76,14 @@ def scene_arrays(depsgraph, layered=True):
     """(LayeredScene, materials, face slots, face UVs, corner normals, pass indices, whether the
     LayeredScene was kept from the last render: ``layered_scene``, what it left out to say so:
     ``finite_part``, per object whether camera rays pass through it, whether it casts no shadow,
-    whether reflected and refracted rays pass through it) of the meshes the depsgraph shows, in
-    world space: per object the Materials of its slots, each triangle's
+    whether reflected and refracted rays pass through it; whether it is a holdout) of the meshes
+    the depsgraph shows, in world space: per object the Materials of its slots, each triangle's
     slot, for textured materials its corners' UVs, its corners' shading normals as Blender
     gives them (None for a mesh smooth all over), and its pass index. Instances are drawn as
     they are, outside the layering. Without ``layered`` (plain ray tracing) the global
     normals, body parts and probe distances that only layering uses are not read."""
     objects, layers, normals, materials, slots, uvs, shading, pass_index, warnings = ([] for _ in range(9))
-    unseen, shadowless, unreflected, unrefracted = [], [], [], []
+    unseen, shadowless, unreflected, unrefracted, holdout = [], [], [], [], []
     settings = depsgraph.scene.deformrt
     parts = None
     for obj, a, outside, mats in meshes(depsgraph):
@@ -109,6 +109,7 @@ def scene_arrays(depsgraph, layered=True):
         shadowless.append(not obj.visible_shadow)
         unreflected.append(not obj.visible_glossy)
         unrefracted.append(not obj.visible_transmission)
+        holdout.append(bool(obj.is_holdout))
         if layered and role == "BODY":
             # no vertex groups: reading them adds a modifier, and a render must not write to the scene
             parts, _ = body_parts(obj, settings.scheme, a.vertices, groups=False, depsgraph=depsgraph)
@@ -123,4 +124,4 @@ def scene_arrays(depsgraph, layered=True):
     made, kept = layered_scene(objects, layers, normals, probe, settings.offset,
                                keep=depsgraph.scene.render.use_persistent_data)
     return made, materials, slots, uvs, shading, pass_index, kept, warnings, (unseen, shadowless, unreflected,
-                                                                              unrefracted)
+                                                                              unrefracted), holdout

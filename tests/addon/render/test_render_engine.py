@@ -341,6 +341,28 @@ def test_an_object_that_casts_no_shadow_leaves_the_floor_lit_as_cycles_does(stud
     assert cycles[r < 0.75][:, :3].min() > 0.5 * 2.0 * 0.8 / np.pi  # Cycles: no shadow there either
 
 
+def test_a_holdout_cuts_a_hole_where_cycles_does(studio, clean_scene, tmp_path):
+    """A holdout ball in front of a lit floor: (0, 0, 0, 0) where it is the first thing seen, as
+    Cycles leaves it, the rest as before."""
+    scene = _engine(clean_scene)
+    _stage(scene, sun_strength=2.0)
+    bpy.ops.mesh.primitive_plane_add(size=20.0)
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.8, location=(0, 0, 1.5))
+    ball = bpy.context.active_object
+    before = _render(studio, scene, tmp_path)
+    ball.is_holdout = True
+    ours = _render(studio, scene, tmp_path)
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples, scene.cycles.filter_width = 1, 0.01
+    cycles = _render(studio, scene, tmp_path)
+    hole = cycles[..., 3] < 0.5
+    assert 0.05 < hole.mean() < 0.6
+    covered = (ours[..., 3] == 0) | hole
+    assert ((ours[..., 3] == 0) == hole)[covered].mean() > 0.95  # the ball's outline, as Cycles draws it
+    np.testing.assert_array_equal(ours[ours[..., 3] == 0], 0.0)
+    np.testing.assert_array_equal(ours[ours[..., 3] > 0], before[ours[..., 3] > 0])
+
+
 def test_a_garment_hidden_from_the_camera_hides_nothing_under_it(studio, clean_scene, tmp_path):
     """The jacket of a poking pair hidden from the camera: the shirt shows wherever it is, as it
     does with the jacket left out of the render (a garment the camera does not see covers
