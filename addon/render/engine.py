@@ -184,7 +184,8 @@ class DEFORMRT_RE_layered(bpy.types.RenderEngine):
                       "Depth": np.where(hit, depth, BACKGROUND_DEPTH)[:, None],
                       "IndexOB": pass_index[img.index][:, None], FIXED_PASS: img.fixed[:, None]}
             # Blender's rows run bottom-up
-            result = self.begin_result(0, h - bottom, w, bottom - top)
+            # Blender renders each view layer with its own depsgraph: its passes go to that layer
+            result = self.begin_result(0, h - bottom, w, bottom - top, layer=depsgraph.view_layer.name)
             for p in result.layers[0].passes:
                 if p.name in planes:
                     # foreach_set copies in one go (assigning rect goes pixel by pixel: 0.25 s per

@@ -363,6 +363,50 @@ def test_a_holdout_cuts_a_hole_where_cycles_does(studio, clean_scene, tmp_path):
     np.testing.assert_array_equal(ours[ours[..., 3] > 0], before[ours[..., 3] > 0])
 
 
+def test_each_view_layer_gets_its_own_passes(clean_scene, tmp_path):
+    """Two view layers, the second without the ball's collection: the first's object index shows
+    the ball, the second's does not (each layer's render used to land in the first)."""
+    scene = _engine(clean_scene)
+    _stage(scene)
+    props = bpy.data.collections.new("Props")
+    scene.collection.children.link(props)
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=1.0)
+    ball = bpy.context.active_object
+    for c in ball.users_collection:
+        c.objects.unlink(ball)
+    props.objects.link(ball)
+    ball.pass_index = 3
+    first = scene.view_layers[0]
+    second = scene.view_layers.new("Without props")
+    second.layer_collection.children["Props"].exclude = True
+    scene.render.resolution_x = scene.render.resolution_y = 16
+    scene.render.resolution_percentage = 100
+    scene.use_nodes = True
+    tree = scene.node_tree
+    tree.nodes.clear()
+    for k, layer in enumerate((first, second)):
+        first.use_pass_object_index = second.use_pass_object_index = True
+        node = tree.nodes.new("CompositorNodeRLayers")
+        node.layer = layer.name
+        out = tree.nodes.new("CompositorNodeOutputFile")
+        out.base_path = str(tmp_path / f"layer{k}") + "/"
+        out.format.file_format = "OPEN_EXR"
+        out.file_slots.clear()
+        out.file_slots.new("IndexOB")
+        tree.links.new(node.outputs["IndexOB"], out.inputs["IndexOB"])
+    assert bpy.ops.render.render() == {"FINISHED"}
+    ball_pixels = []
+    for k in range(2):
+        img = bpy.data.images.load(str(tmp_path / f"layer{k}" / "IndexOB0001.exr"))
+        px = np.empty(16 * 16 * 4, np.float32)
+        img.pixels.foreach_get(px)
+        bpy.data.images.remove(img)
+        ball_pixels.append(int((px.reshape(-1, 4)[:, 0] == 3).sum()))
+    scene.node_tree.nodes.clear()
+    scene.use_nodes = False
+    assert ball_pixels[0] > 20 and ball_pixels[1] == 0
+
+
 def test_a_garment_hidden_from_the_camera_hides_nothing_under_it(studio, clean_scene, tmp_path):
     """The jacket of a poking pair hidden from the camera: the shirt shows wherever it is, as it
     does with the jacket left out of the render (a garment the camera does not see covers
