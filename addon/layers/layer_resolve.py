@@ -52,15 +52,15 @@ class ResolveSummary:
         moved = max(self.max_move, default=0.0)
         alone = f"; near no other garment, left as fitted: {', '.join(self.alone)}" if self.alone else ""
         skin = f", {self.skin_hidden} covered skin faces hidden" if self.skin_hidden else ""
-        inside_out = (f"; {self.body}'s faces point inward (flipped, or a negative scale): resolved the right way "
-                      "out" if self.stats.get("body_inside_out") else "")
+        notes = (f"; {self.body}'s faces point inward (flipped, or a negative scale): resolved the right way "
+                 "out" if self.stats.get("body_inside_out") else "")
         far = self.stats.get("vertices_far_from_body", 0)
         if far:  # the method's known limit: cloth beyond the probe's reach from its body part is not probed
-            inside_out += (f"; {far} garment points lie farther from the body than the probe reaches "
-                           "(raise Probe Distance, or move the garments onto the body)")
+            notes += (f"; {far} garment points lie farther from the body than the probe reaches "
+                      "(raise Probe Distance, or move the garments onto the body)")
         return (f"Resolved {len(self.garments)} garments on {self.body} in {self.seconds['total_s']:.2f} s: "
                 f"max move {moved * 1000:.1f} mm, {sum(self.faces_hidden)} faces hidden{skin} "
-                f"(parts: {self.parts_source}){alone}{inside_out}")
+                f"(parts: {self.parts_source}){alone}{notes}")
 
     def report(self) -> LayersReport:
         return LayersReport(
