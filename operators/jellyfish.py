@@ -93,7 +93,8 @@ class DEFORMRT_OT_optimize_jellyfish(_NeedsJellyfish, BackgroundOperator, bpy.ty
         jellyfish.store_stroke(bell, result, config)
         how = "stopped early, kept the best" if result.stopped == "cancelled" else result.stopped
         self.report({"INFO"}, f"Best stroke: fitness {result.fitness:+.3f}, "
-                              f"{result.cycle.path_m / config.bell.diameter:.3f} bell diameters per cycle "
+                              f"{result.cycle.path_m / len(result.cycle.path_per_cycle_m) / config.bell.diameter:.3f} "
+                              f"bell diameters per cycle "
                               f"({result.evaluations} cycles in {result.seconds:.0f} s, {how})")
         return {"FINISHED"}
 

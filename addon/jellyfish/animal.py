@@ -268,5 +268,7 @@ def bake(scene, bell, frame_start, frame_end, cycle_frames, wobble=0.03, seed=0,
     bell.location.z = z0
     scene.frame_set(scene.frame_current)
     source = "the optimised stroke" if optimised else "the default stroke (nothing optimised yet)"
-    return (f"Baked {frame_end - frame_start + 1} frames of {source}: "
-            f"{cycle.path_m / shape.diameter:.3f} bell diameters per {cycle_frames}-frame cycle")
+    per_cycle = cycle.path_per_cycle_m / shape.diameter
+    later = f", {per_cycle[-1]:.3f} in cycle {count} and each after" if count > 1 else ""
+    return (f"Baked {frame_end - frame_start + 1} frames of {source}: {per_cycle[0]:.3f} bell diameters in the first "
+            f"{cycle_frames}-frame cycle{later}")

@@ -104,6 +104,21 @@ class BellMap:
     def displacement_at(self, points, s):
         return s * self.spline(points)
 
+    def rest_of(self, points, s, tol=1e-12, max_iterations=50):
+        """Where the points were at rest: X with X + s D(X) = x (fixed point X <- x - s D(X),
+        a contraction wherever the map does not fold, |s grad D| < 1). Material velocities are
+        ds/dt D(X); D at the moved point x would give the margin another speed than its own."""
+        x = np.asarray(points, float)
+        rest = x - self.displacement_at(x, s)
+        scale = max(1e-300, float(np.abs(self.displacement).max()))
+        for _ in range(max_iterations):
+            new = x - self.displacement_at(rest, s)
+            step = float(np.abs(new - rest).max(initial=0.0))
+            rest = new
+            if step <= tol * scale:
+                break
+        return rest
+
 
 def polygon_area(p) -> float:
     x, y = p[:, 0], p[:, 1]

@@ -1,8 +1,10 @@
 """``deformrt jellyfish``: the thesis' jellyfish run end to end on the bundled sea scene.
 
 Optimise the stroke on a small budget (deformrt.optimize_jellyfish), bake it
-(deformrt.bake_jellyfish), render one swimming cycle to an 8-frame contact sheet (like the
-thesis' Fig. 3.2) and write what was measured to metrics.md.
+(deformrt.bake_jellyfish) over many cycles, render the bell's travel to contact_sheet.png (a
+fixed camera, the start of every other cycle, a bar where the bell's top began) and one cycle
+of its stroke to stroke_sheet.png (the camera riding along, like the thesis' Fig. 3.2), and
+write what was measured to metrics.md.
 """
 
 import json
@@ -12,6 +14,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
+from ...addon.io import blender_versions
 from ...addon.jellyfish import animal as jellyfish
 from ...core.jellyfish import bell3d
 from ...core.jellyfish.swimming import default_config, default_creature, fitness, reference_scales, simulate_cycle
@@ -37,6 +40,60 @@ def contact_sheet(paths, out, columns):
     bpy.data.images.remove(img)
 
 
+TRAVEL_SHOTS, TRAVEL_EVERY = 8, 4  # the travel sheet: the start of every fourth cycle, 32 cycles
+
+
+def _markers(at, size):
+    """Two thin glowing bars either side of the bell, in the plane of its axis, level with where
+    its top began: the travel sheet's yardstick."""
+    bars = []
+    for side in (-1.0, 1.0):
+        where = (at[0] + side * 0.75 * size, at[1], at[2])
+        bpy.ops.mesh.primitive_cylinder_add(radius=0.006 * size, depth=0.35 * size, location=where,
+                                            rotation=(0.0, np.pi / 2, 0.0))
+        bars.append(bpy.context.active_object)
+    bars[0].name = bars[1].name = "DeformRT start height"
+    mat = bpy.data.materials.new("DeformRT start height")
+    mat.diffuse_color = (1.0, 0.35, 0.05, 1.0)
+    blender_versions.use_nodes(mat)
+    emit = mat.node_tree.nodes.new("ShaderNodeEmission")
+    emit.inputs["Color"].default_value = (1.0, 0.35, 0.05, 1.0)
+    emit.inputs["Strength"].default_value = 4.0
+    mat.node_tree.links.new(emit.outputs["Emission"], mat.node_tree.nodes["Material Output"].inputs["Surface"])
+    for bar in bars:
+        bar.data.materials.append(mat)
+    return bars
+
+
+def _bell_top(bell, n):
+    ev = bell.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    mesh = ev.to_mesh()
+    try:
+        co = np.empty(len(mesh.vertices) * 3)
+        mesh.vertices.foreach_get("co", co)
+    finally:
+        ev.to_mesh_clear()
+    world = np.array(bell.matrix_world)
+    top = co.reshape(-1, 3)[:n] @ world[:3, :3].T + world[:3, 3]
+    return top[np.argmax(top[:, 2])]
+
+
+def _render_sheet(scene, out, name, shots, width, height, samples, place_camera=None):
+    from ...sample_scenes import studio
+
+    paths, seconds = [], 0.0
+    for k, f in enumerate(shots):
+        scene.frame_set(f)
+        if place_camera is not None:
+            place_camera()
+        path = out / f"{name}_{k + 1}.png"
+        seconds += studio.render_cycles(scene, path, resolution=(width, height), samples=samples, denoise=True,
+                                        quiet=True)
+        paths.append(path)
+    contact_sheet(paths, out / f"{name}.png", columns=4)
+    return seconds
+
+
 def _bell_volume(bell, n, tris):
     ev = bell.evaluated_get(bpy.context.evaluated_depsgraph_get())
     mesh = ev.to_mesh()
@@ -49,7 +106,7 @@ def _bell_volume(bell, n, tris):
 
 
 def run(args) -> int:
-    from ...sample_scenes import sea, studio
+    from ...sample_scenes import sea
 
     out = Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
@@ -81,8 +138,10 @@ def run(args) -> int:
     after = simulate_cycle(creature, config)
 
     frames = args.cycle_frames
+    travel_cycles = TRAVEL_EVERY * TRAVEL_SHOTS
+    last_frame = travel_cycles * frames + 1
     t0 = time.perf_counter()
-    if bpy.ops.deformrt.bake_jellyfish(frame_start=1, frame_end=2 * frames + 1, cycle_frames=frames) != {"FINISHED"}:
+    if bpy.ops.deformrt.bake_jellyfish(frame_start=1, frame_end=last_frame, cycle_frames=frames) != {"FINISHED"}:
         raise RuntimeError("deformrt.bake_jellyfish did not finish")
     bake_s = time.perf_counter() - t0
     n = json.loads(bell[jellyfish.PROP_MODEL])["bell_vertices"]
@@ -95,16 +154,28 @@ def run(args) -> int:
         volume_err.append(abs(_bell_volume(bell, n, tris) / rest_volume - 1))
 
     # one cycle in 8 pictures; the camera rides along so the bell stays in frame
-    shots = [1 + round(k * frames / 8) for k in range(8)]
-    paths, render_s = [], 0.0
+    stroke_shots = [1 + round(k * frames / 8) for k in range(8)]
     z_cam = cam.location.z
-    for k, f in enumerate(shots):
-        scene.frame_set(f)
+
+    def ride_along():
         cam.location.z = z_cam + bell.matrix_world.translation.z - anchor.location.z
-        path = out / f"frame_{k + 1}.png"
-        render_s += studio.render_cycles(scene, path, resolution=(args.width, args.height), samples=args.samples)
-        paths.append(path)
-    contact_sheet(paths, out / "contact_sheet.png", columns=4)
+
+    render_s = _render_sheet(scene, out, "stroke_sheet", stroke_shots, args.width, args.height, args.samples,
+                             ride_along)
+    # its travel: a fixed camera level with the bell's top (tentacles cut off), landscape, and
+    # bars where the top began
+    scene.frame_set(1)
+    start = _bell_top(bell, n)
+    scene.frame_set(last_frame)
+    rise = _bell_top(bell, n)[2] - start[2]
+    _markers(start, args.size)
+    cam.data.lens = 50
+    view = 1.9 * args.size  # across the frame: the bell and the bars either side
+    cam.location = (start[0], start[1] - view * cam.data.lens / 36.0, start[2] + 0.5 * rise)
+    cam.rotation_euler = (np.radians(90.0), 0.0, 0.0)
+    travel_shots = [1 + TRAVEL_EVERY * k * frames for k in range(TRAVEL_SHOTS)]
+    render_s += _render_sheet(scene, out, "contact_sheet", travel_shots, args.height, args.width, args.samples)
+    rendered = 2 * len(travel_shots)
 
     d = config.bell.diameter
     rows = [
@@ -129,24 +200,31 @@ def run(args) -> int:
         "|---|---:|",
         f"| one cycle of the default stroke | {default_s:.2f} |",
         f"| deformrt.optimize_jellyfish | {optimise_s:.2f} |",
-        f"| deformrt.bake_jellyfish ({2 * frames + 1} frames) | {bake_s:.2f} |",
-        f"| Cycles, 8 frames {args.width}x{args.height} at {args.samples} spp | {render_s:.1f} |",
+        f"| deformrt.bake_jellyfish ({last_frame} frames) | {bake_s:.2f} |",
+        f"| Cycles, {rendered} frames {args.width}x{args.height} at {args.samples} spp, denoised | {render_s:.1f} |",
         "",
         f"Bell volume over the baked cycle: largest change {100 * max(volume_err):.3f}% of rest.",
         "",
-        f"contact_sheet.png: frames {', '.join(map(str, shots))} of a {frames}-frame cycle, left to right, top to "
-        "bottom (contraction, then relaxation).",
+        "contact_sheet.png: the bell's travel, the start of cycles "
+        f"{', '.join(str(1 + TRAVEL_EVERY * k) for k in range(TRAVEL_SHOTS))} (frames "
+        f"{', '.join(map(str, travel_shots))}), left to right, top to bottom; the orange bars mark where its top "
+        f"began. It rises {rise * 1000:.0f} mm ({rise / args.size:.3f} bell diameters) in {travel_cycles} cycles "
+        f"(the stroke simulated {jellyfish.BAKE_CYCLES} cycles in a row, the last repeating after).",
+        "",
+        f"stroke_sheet.png: frames {', '.join(map(str, stroke_shots))} of the first {frames}-frame cycle, the camera "
+        "riding along (contraction, then relaxation).",
     ]
     table = "\n".join(rows)
     (out / "metrics.md").write_text(table + "\n")
     print(table)
-    print(f"\nwrote {out / 'contact_sheet.png'} and {out / 'metrics.md'}")
+    print(f"\nwrote {out / 'contact_sheet.png'}, {out / 'stroke_sheet.png'} and {out / 'metrics.md'}")
     return 0
 
 
 def add_parser(sub):
     p = sub.add_parser("jellyfish", help="optimise, bake and render the jellyfish on the sea scene")
-    p.add_argument("--out", default="out/jellyfish", help="folder for frames, contact_sheet.png and metrics.md")
+    p.add_argument("--out", default="out/jellyfish",
+                   help="folder for frames, contact_sheet.png, stroke_sheet.png and metrics.md")
     p.add_argument("--method", choices=("ga-sa", "de", "random"), default="ga-sa")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--particles", type=int, default=60, help="fluid particles per side for the search")

@@ -152,11 +152,16 @@ def test_jellyfish_command_optimises_bakes_and_renders_a_contact_sheet(extension
     args = ["jellyfish", "--out", str(tmp_path), "--particles", "24", "--population", "2", "--generations", "1",
             "--cycle-frames", "8", "--width", "40", "--height", "56", "--samples", "1"]
     assert importlib.import_module(extension.__name__ + ".operators.cli.commands").main(args) == 0
-    img = bpy.data.images.load(str(tmp_path / "contact_sheet.png"))
-    assert tuple(img.size) == (4 * 40, 2 * 56)
-    px = np.empty(img.size[0] * img.size[1] * 4, np.float32)
-    img.pixels.foreach_get(px)
-    tiles = px.reshape(2, 56, 4, 40, 4)  # rows of tiles, pixel rows, tiles, pixel columns, RGBA
-    assert np.abs(tiles[1, :, 0] - tiles[0, :, 0]).mean() > 1e-3  # the bell moved between the shots
+    def tiles(name, width, height):
+        img = bpy.data.images.load(str(tmp_path / name))
+        assert tuple(img.size) == (4 * width, 2 * height)
+        px = np.empty(img.size[0] * img.size[1] * 4, np.float32)
+        img.pixels.foreach_get(px)
+        return px.reshape(2, height, 4, width, 4)  # rows of tiles, pixel rows, tiles, pixel columns, RGBA
+
+    stroke = tiles("stroke_sheet.png", 40, 56)
+    assert np.abs(stroke[1, :, 0] - stroke[0, :, 0]).mean() > 1e-3  # the bell moved between the shots
+    travel = tiles("contact_sheet.png", 56, 40)  # landscape: the bell and the bars either side
+    assert np.abs(travel[1, :, 3] - travel[0, :, 0]).mean() > 1e-3  # a fixed camera: the bell rose
     table = (tmp_path / "metrics.md").read_text()
     assert "| optimised |" in table and "4 cycles on a 24x24" in table

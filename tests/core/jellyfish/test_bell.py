@@ -71,6 +71,14 @@ def test_map_moves_controls_to_destinations_and_keeps_anchors():
     assert check_folds(SHAPE, m) is None
 
 
+@pytest.mark.parametrize("s", [0.0, 0.3, 1.0])
+def test_rest_of_undoes_the_map(s):
+    m = BellMap(SHAPE, _creature(), BOX)
+    p, _ = contour(SHAPE)
+    rest = p * 0.9 + [0.0, 0.002]  # points inside the bell as well as on it
+    np.testing.assert_allclose(m.rest_of(rest + m.displacement_at(rest, s), s), rest, atol=1e-12)
+
+
 def test_no_deformation_no_energy():
     m = BellMap(SHAPE, _creature(0.0, 0.0), BOX)
     assert abs(m.bending_energy()) < 1e-15

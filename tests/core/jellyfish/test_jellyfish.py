@@ -46,7 +46,7 @@ def test_bells_of_a_millimetre_and_a_metre_swim_alike_at_the_same_reynolds_numbe
     unit = default_config(particles=N)
     ref = simulate_cycle(default_creature(unit), unit)
     b = BellShape(0.10 * scale, 0.035 * scale, 0.022 * scale)
-    cfg = default_config(particles=N, bell=b, box=0.2 * scale, viscosity=1e-6 * scale**2)
+    cfg = default_config(particles=N, bell=b, box=0.2 * scale, viscosity=unit.viscosity * scale**2)
     r = simulate_cycle(default_creature(cfg), cfg)
     assert r.path_m / b.diameter == pytest.approx(ref.path_m / 0.10, rel=1e-8)
     assert r.bending_energy == pytest.approx(ref.bending_energy, rel=1e-8)

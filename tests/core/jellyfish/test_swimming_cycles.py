@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from core.jellyfish import default_config, default_creature, simulate_cycle, simulate_cycles
-from core.jellyfish.bell import Creature
+from core.jellyfish.bell import BellMap, Creature
 from core.jellyfish.evaluation import Cancelled
 from core.jellyfish.particle_fluid import Box, LatticeFluid
 
@@ -61,6 +61,39 @@ def test_a_closed_box_keeps_its_volume_and_momentum():
     assert abs(f.divergence().sum() * f.h**2) < 1e-9 * grad  # no net flow in or out: the volume is kept
 
 
+def test_the_bell_moves_its_particles_at_their_own_material_speed():
+    """The velocity imposed at a particle the bell covers is that of the bell's material there:
+    d/dt of X + s(t) D(X) for the rest point X the map sends there (found here by scipy's root
+    finder, the time derivative by central differences). D at the moved point instead gave the
+    margin a speed up to a fifth off its own, which the mask's switching then made up for."""
+    from scipy.optimize import fsolve
+
+    from core.jellyfish.bell import phase
+    from core.jellyfish.swimming import _BellForcing
+
+    cfg = default_config(particles=60)
+    cr = default_creature(cfg)
+    fluid = LatticeFluid(Box(cfg.box, cfg.height, periodic=(True, True)), nx=cfg.particles)
+    forcing = _BellForcing(fluid, cfg, BellMap(cfg.bell, cr, 0.5 * cfg.box), cr.contraction)
+    t = 0.2  # mid-contraction: phase 0.65, the margin at its fastest
+    u = forcing(np.zeros((fluid.n, 2)), t, 1e-3, False)
+    mask = forcing.covered(forcing.outline(t))
+    imposed = u[mask] - [0.0, forcing.speed]
+    x = forcing.local(fluid.points[mask])
+
+    def place(rest, when):
+        return rest + forcing.map.displacement_at(rest, phase(when, cr.contraction))
+
+    s = phase(t, cr.contraction)
+    guess = x - forcing.map.displacement_at(x, s)
+    rest = np.array([fsolve(lambda r, xi=xi: place(r[None], t)[0] - xi, g, xtol=1e-13)
+                     for xi, g in zip(x, guess, strict=True)])
+    eps = 1e-5
+    material = (place(rest, t + eps) - place(rest, t - eps)) / (2 * eps)
+    np.testing.assert_allclose(imposed, material, atol=1e-6 * np.abs(material).max())
+    assert np.abs(material).max() > 0.01  # m/s: the bell is moving
+
+
 def test_the_default_creature_swims_forward_cycle_after_cycle():
     cfg = default_config()
     r = simulate_cycles(default_creature(cfg), cfg, 6)
@@ -70,6 +103,17 @@ def test_the_default_creature_swims_forward_cycle_after_cycle():
     assert r.swum[-1] == pytest.approx(r.path_m, rel=1e-12) and len(r.speed) == 6 * cfg.substeps
     # it does not stall in its own wake: no cycle swims less than half the first
     assert r.path_per_cycle_m.min() > 0.5 * r.path_per_cycle_m[0]
+
+
+def test_the_cruising_path_is_converged_in_time_steps_and_rounds():
+    """The default's 8 cycles against eight rounds at a quarter of its inner time step (issue 46:
+    within 20%). At water's viscosity the lattice does not resolve the boundary layers and the two
+    differ by 35%; at the default's they agree within 10%."""
+    cfg = default_config()
+    fine = default_config(cfl=0.25, forcing_iterations=8)
+    coarse_path = simulate_cycles(default_creature(cfg), cfg, 8).path_m
+    fine_path = simulate_cycles(default_creature(fine), fine, 8).path_m
+    assert coarse_path == pytest.approx(fine_path, rel=0.2)
 
 
 def test_the_first_of_many_cycles_is_the_single_cycle():
