@@ -35,8 +35,8 @@ class WaterDrift:
 
 
 def _water_velocity(u, nx, h, points):
-    """Velocity on the periodic lattice (row-major in y, cell-centred) at ``points``, cubic."""
-    grid = u.reshape(nx, nx, 2)
+    """Velocity on the periodic lattice (``nx`` a row, rows along y, cell-centred) at ``points``, cubic."""
+    grid = u.reshape(-1, nx, 2)
     rows, cols = points[:, 1] / h - 0.5, points[:, 0] / h - 0.5
     return np.column_stack([map_coordinates(grid[..., c], [rows, cols], order=3, mode="grid-wrap")
                             for c in range(2)])

@@ -78,8 +78,14 @@ def test_shapes_replay_the_drift_of_a_simulated_cycle():
     w = water_drift(cycle, cfg, rz, modes=3, keep=0.999)
     replay = np.array([w.at(t) for t in w.times])
     err = np.linalg.norm(replay - w.drift) / np.linalg.norm(w.drift)
-    assert err <= np.sqrt(1 - w.captured) + 1e-9
+    # the shapes are the drift's best rank-k fit (Eckart-Young): what they miss is exactly the
+    # share of its sum of squares they leave out, neither more nor less
+    assert err == pytest.approx(np.sqrt(1 - w.captured), rel=1e-6, abs=1e-12)
     assert w.captured >= 0.99
+    one = water_drift(cycle, cfg, rz, modes=1, keep=0.999)
+    assert np.linalg.norm(np.array([one.at(t) for t in one.times]) - w.drift) == pytest.approx(
+        np.sqrt(1 - one.captured) * np.linalg.norm(w.drift), rel=1e-6)
+    assert one.captured < w.captured
     assert np.all(w.drift[:, 0] == 0.0)  # the root sits on the margin: the bell holds it
     # the bell swims up as it contracts, so its tentacles trail below rest then
     fastest = int(np.argmax(cycle.speed))
@@ -102,3 +108,20 @@ def test_a_cycle_without_sampled_water_is_refused():
         water_drift(cycle, cfg, [[0.05, -0.02]])
     with pytest.raises(ValueError, match="finite"):
         water_drift(_cycle(cfg, lambda p, t: np.zeros_like(p), 0.0), cfg, [[np.nan, -0.02]])
+
+
+def test_water_is_read_in_a_taller_box_as_in_a_square_one():
+    """A uniform stream in a box twice as tall reads as in the square box (the lattice's rows
+    are not its columns)."""
+    water = np.array([0.0, -0.01])
+    rz = np.column_stack([np.full(4, 0.05), np.linspace(-0.1, -0.02, 4)])
+    got = []
+    for height in (None, 0.4):
+        cfg = default_config(particles=20, substeps=4, box_height=height)
+        t = cfg.period * np.arange(1, cfg.substeps + 1) / cfg.substeps
+        pts = lattice(cfg.particles, cfg.rows, cfg.box / cfg.particles)
+        fields = [(tk, np.broadcast_to(water, pts.shape).copy(), None, None) for tk in t]
+        cycle = CycleResult(0.0, 0.0, 0.0, 0.0, speed=np.zeros(4), swum=np.zeros(4), fields=fields)
+        got.append(water_drift(cycle, cfg, rz).drift)
+    np.testing.assert_allclose(got[1], got[0], atol=1e-15)
+    assert np.abs(got[0][..., 1]).max() > 1e-4

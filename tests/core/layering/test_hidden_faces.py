@@ -107,3 +107,34 @@ def test_empty_layers_apart_layers_and_zero_length_edges():
         np.testing.assert_array_equal(found[k], expected[k])
     assert found[0].any() and not found[3].any()
     assert crossing_faces([v0], [f0], [edges[0]])[1] == 0
+
+
+def _grid(u_count, v_count, place):
+    """A (u, v) grid of triangles on [0, 1]^2 mapped through place(u, v) -> (m, 3)."""
+    u, v = np.meshgrid(np.linspace(0, 1, u_count), np.linspace(0, 1, v_count), indexing="ij")
+    vertices = place(u.ravel(), v.ravel())
+    i = np.arange(u_count - 1)[:, None] * v_count + np.arange(v_count - 1)[None, :]
+    a, b, c, d = i.ravel(), i.ravel() + v_count, i.ravel() + v_count + 1, i.ravel() + 1
+    return vertices, np.concatenate([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
+
+
+@pytest.mark.parametrize("upper_first", [False, True])
+def test_a_folded_layer_crossed_many_times_by_one_edge(upper_first):
+    """A pleated sheet that folds back over itself (not a height field) and a narrow strip standing
+    across it: each of the strip's long edges passes through the pleats five times, between the
+    pleats' own edges, and every triangle it passes through is hidden, not only the first along
+    it (6 triangles; the first alone would be 1). With the layers the other way round, the
+    pleats' edges through the strip hide the strip's own triangles."""
+    rng = np.random.default_rng(3)
+    pleated = _grid(31, 4, lambda u, v: np.column_stack([0.3 * np.sin(5 * np.pi * u), v, 0.3 * u]))
+    flat = _grid(2, 2, lambda u, v: np.column_stack([0.05 + 0.02 * u, 0.45 + 0.004 * v, 0.34 * u - 0.02]))
+    turn = np.linalg.qr(rng.normal(size=(3, 3)))[0]  # anywhere in space
+    layers = [flat, pleated] if upper_first else [pleated, flat]
+    vertices = [v @ turn.T for v, _ in layers]
+    faces = [f for _, f in layers]
+    edges = [edges_with_counts(f)[0] for f in faces]
+    found, _ = crossing_faces(vertices, faces, edges)
+    expected = brute_hidden(vertices, faces)
+    assert expected[0].sum() == (2 if upper_first else 6)
+    for k in range(2):
+        np.testing.assert_array_equal(found[k], expected[k])
