@@ -83,8 +83,8 @@ def main():
     vorticity_sheet()
     text = "\n".join([
         f"Machine: {machine()}. core.jellyfish.simulate_cycle on the default creature (the thesis' Aurelia case: "
-        "10 cm bell, 20 x 20 cm periodic domain, viscosity 1e-5 m^2/s, one 1 s cycle, a third of it contracting). The thesis' "
-        "Table 3.1 gave 7-27 s per cycle and 0.020-0.038 m of path for 6-20 substeps on one 2008 core.",
+        "10 cm bell, 20 x 20 cm periodic domain, viscosity 1e-5 m^2/s, one 1 s cycle, a third of it contracting). "
+        "The thesis' Table 3.1 gave 7-27 s per cycle and 0.020-0.038 m of path for 6-20 substeps on one 2008 core.",
         "", "### Against substeps (100 x 100 particles)", "",
         table(["substeps", *head[1:]], by_steps), "",
         "### Against particles per side (14 substeps)", "",
