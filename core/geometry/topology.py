@@ -88,6 +88,16 @@ class MeshTopology:
         self.loose = None if used.all() else ~used
         self._adjacency = None
         self._hem_loops = None
+        self._first_face = None
+
+    @property
+    def first_face(self) -> np.ndarray:
+        """Per vertex the lowest-numbered triangle it is a corner of (len(faces) for none)."""
+        if self._first_face is None:
+            first = np.full(self.n_vertices, len(self.faces))
+            np.minimum.at(first, self.faces.ravel(), np.repeat(np.arange(len(self.faces)), 3))
+            self._first_face = first
+        return self._first_face
 
     @property
     def adjacency(self) -> sparse.csr_matrix:

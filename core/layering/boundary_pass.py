@@ -9,7 +9,7 @@ import numpy as np
 from ..geometry.topology import path_distance
 from ..geometry.vectors import norms, rows
 from .gaussian_peak import largest_gaussian
-from .tracer import trace_layers
+from .tracer import off_the_lines, trace_layers
 
 
 def spread_from_hits(vertices, faces, topology, hit_points, amplitude, seed_vertices, falloff=None):
@@ -48,11 +48,15 @@ def tuck_under_hems(stack, k):
     """Tuck layer k of the LayerStack in under the hems of the layers above it."""
     v, f = stack.verts[k], stack.faces[k]
     up = stack.above(k)
-    o = np.concatenate([stack.verts[j][stack.hems[j]] for j in up]) if up else np.zeros((0, 3))
-    if not len(f) or not len(o):
+    if not len(f) or not up:
         return
-    # every higher layer's hem points at once: one scene of this layer near the hems
+    # every higher layer's hem points at once: one scene of this layer near the hems (each off
+    # the exact line through its vertex: see off_the_lines)
     n_o = np.concatenate([stack.normals[j][stack.hems[j]] for j in up])
+    o = np.concatenate([off_the_lines(stack.verts[j], stack.topo[j], stack.chord * 1e-3,
+                                      stack.normals[j][stack.hems[j]], stack.hems[j]) for j in up])
+    if not len(o):
+        return
     t, layer, face, r, _ = trace_layers(o, n_o, np.concatenate([stack.probe_len[j][stack.hems[j]] for j in up]),
                                         np.concatenate([stack.vseg2[j][stack.hems[j]] for j in up]), stack.scenes,
                                         [k], cull=True, facing=(stack.normals, n_o))

@@ -6,7 +6,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from .tracer import trace_layers
+from .tracer import off_the_lines, trace_layers
+
+
+def _probe(stack, k, v, step, skip):
+    """(t, layer) of layer k's inward probes, each ``step`` off its vertex's line."""
+    gap, normals = stack.gap, stack.normals
+    start = off_the_lines(v, stack.topo[k], step, normals[k]) + normals[k] * gap
+    t, layer, _, r, secs = trace_layers(start, -normals[k], stack.probe_len[k] + gap, stack.vseg2[k],
+                                        stack.scenes, stack.above(k), farthest=True,
+                                        facing=(normals, normals[k]), skip=skip)
+    stack.rays["push"] += r
+    stack.push_trace_s += secs
+    return t, layer
 
 
 def push_behind(stack, k):
@@ -14,15 +26,20 @@ def push_behind(stack, k):
     v = stack.verts[k]
     if not len(v):
         return
-    gap, normals = stack.gap, stack.normals
+    normals = stack.normals
     # Probes start the gap outside the vertex, so a vertex less than that behind a higher
     # layer is caught too: a hit at t means the layer is (t - gap) behind, and moving by t
     # leaves exactly the gap. Behind the farthest higher layer within reach, not the nearest.
-    t, layer, _, r, secs = trace_layers(v + normals[k] * gap, -normals[k], stack.probe_len[k] + gap, stack.vseg2[k],
-                                        stack.scenes, stack.above(k), farthest=True,
-                                        facing=(normals, normals[k]), skip=stack.topo[k].loose)
-    stack.rays["push"] += r
-    stack.push_trace_s += secs
+    # Each probe runs just off the line through its vertex (off_the_lines); one that meets nothing
+    # is asked again just off the other side, so a vertex right under a higher layer's hem line
+    # counts as under it, whichever side the first probe took.
+    t, layer = _probe(stack, k, v, stack.chord * 1e-3, stack.topo[k].loose)
+    again = layer < 0
+    if stack.topo[k].loose is not None:
+        again &= ~stack.topo[k].loose
+    if again.any():
+        t2, layer2 = _probe(stack, k, v, -stack.chord * 1e-3, ~again)
+        t[again], layer[again] = t2[again], layer2[again]
     hit = layer >= 0
     if hit.any():
         idx = np.flatnonzero(hit)

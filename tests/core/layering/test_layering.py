@@ -6,6 +6,7 @@ import trimesh
 
 from core.layering import resolve_layers
 from core.layering.metrics import crossings, unique_edges
+from sample_scenes.shapes import tube
 from tests.core.brute import brute_crossings
 from tests.core.layered_cases import body_tube, capped_cylinder, mesh, noisy_sleeves, sheet, slab_body
 
@@ -478,9 +479,8 @@ def test_an_inside_out_body_gives_the_result_of_the_body_it_is():
 
 def test_turning_the_scene_changes_no_default_and_moves_the_result_with_it():
     """The defaults taken from the body's size (offset, the part-border margin) are the same however
-    the scene is turned (an axis-aligned box's diagonal is not), and the result turns with it.
-    (Where a hem's probe ray grazes the next layer's edge a hit can come or go: the inner sleeve
-    is held to its tuck's size, 1 mm, the outer one, only lifted, to a micrometre.)"""
+    the scene is turned (an axis-aligned box's diagonal is not), and the result turns with it,
+    the inner sleeve to 0.1 mm, the outer one, only lifted, to a micrometre."""
     from scipy.spatial.transform import Rotation
 
     body, garments = body_tube(), noisy_sleeves(n=40)
@@ -493,7 +493,41 @@ def test_turning_the_scene_changes_no_default_and_moves_the_result_with_it():
     assert moved.stats["gap"] == pytest.approx(right.stats["gap"], rel=1e-4)
     back = [(g.vertices - shift) @ turn for g in moved.garments]
     np.testing.assert_allclose(back[1], right.garments[1].vertices, rtol=0, atol=1e-6)
-    np.testing.assert_allclose(back[0], right.garments[0].vertices, rtol=0, atol=1e-3)
+    np.testing.assert_allclose(back[0], right.garments[0].vertices, rtol=0, atol=1e-4)
+
+
+def _bound_tube(rings, radius, n=64, dz=0.6 / 32):
+    """A tube on the body tube's own vertex lines (its angles, its rings ``rings``), as
+    garments bound vertex by vertex to the body are: ``radius(theta, z)``."""
+    theta = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    tt, zz = np.meshgrid(theta, dz * np.arange(rings[0], rings[1] + 1))
+    r = radius(tt, zz)
+    v = np.column_stack([(r * np.cos(tt)).ravel(), (r * np.sin(tt)).ravel(), zz.ravel()])
+    i, j = np.meshgrid(np.arange(len(zz) - 1), np.arange(n), indexing="ij")
+    a, b = i * n + j, i * n + (j + 1) % n
+    f = np.concatenate([np.stack([a, b, b + n], -1).reshape(-1, 3), np.stack([a, b + n, a + n], -1).reshape(-1, 3)])
+    return mesh(v, f)
+
+
+def test_garments_bound_to_the_same_body_points_resolve_alike_however_the_scene_is_turned():
+    """MakeHuman binds garments vertex by vertex to the body, so a lower garment's vertex can lie
+    exactly on the normal line through a higher garment's hem vertex: a probe along it met the
+    hem's corner or just missed it by float32 round-off, and which changed with the scene's
+    orientation (2.4 mm on MakeHuman's casual suit over its sports suit; here 0.5 mm). Within
+    0.1 mm now."""
+    from scipy.spatial.transform import Rotation
+
+    body = mesh(*tube(0.15, 0.0, 0.6, n_around=64, n_along=33, capped=True))
+    lower = _bound_tube((10, 26), lambda t, z: 0.1585 + 0.004 * np.cos(3 * t) * np.cos(9 * z))
+    upper = _bound_tube((16, 30), lambda t, z: 0.162 + 0.002 * np.sin(2 * t + 7 * z))
+    right = resolve_layers(body, [lower, upper])
+    assert brute_crossings(*(lambda g: (g[0].vertices, g[0].faces, g[1].vertices, g[1].faces))(right.garments)) == 0
+    for angles in ([35, -50, 20], [10, 0, 0], [0, 80, 0]):
+        turn, shift = Rotation.from_euler("xyz", angles, degrees=True).as_matrix(), np.array([0.3, -1.2, 2.0])
+        moved = resolve_layers(mesh(body.vertices @ turn.T + shift, body.faces),
+                               [mesh(g.vertices @ turn.T + shift, g.faces) for g in (lower, upper)])
+        for a, b in zip(right.garments, moved.garments, strict=True):
+            np.testing.assert_allclose((b.vertices - shift) @ turn, a.vertices, rtol=0, atol=1e-4, err_msg=str(angles))
 
 
 def test_a_part_id_far_beyond_the_parts_is_refused_before_anything_is_allocated():
