@@ -26,6 +26,18 @@ def edges_with_counts(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.column_stack([keys // stride, keys % stride]), counts
 
 
+def crease_edges(vertices, topology, crease_cos=0.5) -> np.ndarray:
+    """Sorted vertex pairs of the edges whose two triangles meet at more than arccos(crease_cos)
+    (60 degrees: where a Solidify's rim turns in)."""
+    edges, faces = topology.edge_faces
+    if not len(edges):
+        return edges
+    f, v = topology.faces, np.asarray(vertices, dtype=np.float64)
+    n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    return edges[np.einsum("ij,ij->i", n[faces[:, 0]], n[faces[:, 1]]) < crease_cos]
+
+
 def used_vertices(faces: np.ndarray, n_vertices: int) -> np.ndarray:
     """Bool mask: vertices some triangle uses (a mask, not a unique: it runs on every scene build)."""
     used = np.zeros(n_vertices, dtype=bool)
@@ -89,6 +101,26 @@ class MeshTopology:
         self._adjacency = None
         self._hem_loops = None
         self._first_face = None
+        self._edge_faces = None
+
+    @property
+    def edge_faces(self) -> tuple[np.ndarray, np.ndarray]:
+        """The edges exactly two triangles share (sorted vertex pairs) and those two triangles."""
+        if self._edge_faces is None:
+            f = self.faces
+            a, b = f.T.ravel(), f[:, [1, 2, 0]].T.ravel()
+            lo, hi = np.minimum(a, b), np.maximum(a, b)
+            key = lo * np.int64(max(self.n_vertices, 1)) + hi
+            face = np.tile(np.arange(len(f)), 3)
+            order = np.argsort(key, kind="stable")
+            key, face, lo, hi = key[order], face[order], lo[order], hi[order]
+            # two neighbours in key order with no third sharing their key
+            pair = np.flatnonzero(key[1:] == key[:-1])
+            after = np.minimum(pair + 2, len(key) - 1)
+            alone = ((pair + 2 >= len(key)) | (key[after] != key[pair])) & ((pair == 0) | (key[pair - 1] != key[pair]))
+            pair = pair[alone]
+            self._edge_faces = (np.column_stack([lo[pair], hi[pair]]), np.column_stack([face[pair], face[pair + 1]]))
+        return self._edge_faces
 
     @property
     def first_face(self) -> np.ndarray:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.topology import topology_of
+from ..geometry.topology import crease_edges, topology_of
 from .tracer import LayerLayout, SegmentScenes, face_segment
 
 
@@ -32,6 +32,7 @@ class LayerStack:
             self.layouts[i] = LayerLayout(self.faces[i], face_segment(self.faces[i], prep.vseg[i]), params.links)
             self.scenes[i] = SegmentScenes(self.verts[i], self.layouts[i], prep.content(i))
         self.rays = {"boundary": 0, "push": 0, "hidden": 0}
+        self._creases = {}
         self.moved_by = {"lift": 0, "boundary": 0, "push": 0}
         # A lower bound on each vertex's distance from the body: the distance found at rest minus
         # every inward move since (distance is 1-Lipschitz). Unlike a ray along -n', it also sees
@@ -95,8 +96,16 @@ class LayerStack:
         self.clearance[k][idx] -= out
         return out
 
+    def creases(self, i):
+        """Layer i's crease edges (core.geometry.topology.crease_edges) where it lies now, kept
+        until it moves: the layers above the one being fitted are done moving."""
+        if self._creases.get(i) is None:
+            self._creases[i] = crease_edges(self.verts[i], self.topo[i])
+        return self._creases[i]
+
     def moved(self, i, vertices):
         """Layer i now lies at ``vertices``: its scenes are built anew where it is."""
+        self._creases[i] = None
         self.verts[i] = vertices
         self.built_before_moves += self.scenes[i].built
         self.kept_before_moves += self.scenes[i].kept

@@ -183,6 +183,44 @@ def face_segment(faces, vertex_segment):
     return np.where(s[:, 1] == s[:, 2], s[:, 1], s[:, 0])
 
 
+_GRAZING_COS = 0.05  # about 87 degrees from the triangle's normal
+
+
+def _grazing(vertices, faces, directions):
+    """Per ray, whether it runs within _GRAZING_COS of its triangle's plane."""
+    a = vertices[faces[:, 0]]
+    n = np.cross(vertices[faces[:, 1]] - a, vertices[faces[:, 2]] - a)
+    size = norms(n)
+    cos = np.abs(np.einsum("ij,ij->i", n, directions)) / np.maximum(size * norms(directions), 1e-300)
+    return (cos < _GRAZING_COS) & (size > 0)
+
+
+def _on_outline(vertices, faces, edges, points, tolerance):
+    """Per hit (its triangle's corners ``faces``, where it hit ``points``): within ``tolerance``
+    of one of the triangle's corners or edges that lies on the outline ``edges``."""
+    out = np.zeros(len(points), dtype=bool)
+    if not len(edges):
+        return out
+    n_vertices = len(vertices)
+    on = np.zeros(n_vertices, dtype=bool)
+    on[edges.ravel()] = True
+    for a in range(3):
+        near = np.flatnonzero(on[faces[:, a]])
+        out[near] |= norms(points[near] - vertices[faces[near, a]]) <= tolerance[near]
+    keys = np.sort(edges[:, 0] * np.int64(n_vertices) + edges[:, 1])
+    for a, b in ((0, 1), (1, 2), (2, 0)):
+        lo, hi = np.minimum(faces[:, a], faces[:, b]), np.maximum(faces[:, a], faces[:, b])
+        k = lo * np.int64(n_vertices) + hi
+        near = np.flatnonzero(keys[np.minimum(np.searchsorted(keys, k), len(keys) - 1)] == k)
+        if not len(near):
+            continue
+        start, edge = vertices[lo[near]], vertices[hi[near]] - vertices[lo[near]]
+        s = np.clip(np.einsum("ij,ij->i", points[near] - start, edge) / np.maximum(
+            np.einsum("ij,ij->i", edge, edge), 1e-300), 0.0, 1.0)
+        out[near] |= norms(points[near] - start - edge * s[:, None]) <= tolerance[near]
+    return out
+
+
 def off_the_lines(vertices, topology, step, directions, which=None):
     """Probe origins at ``vertices`` (those of ``which``, indices, if given), each moved ``step``
     sideways to its probe's direction (``directions``, unit, one per origin), toward the centre of
@@ -211,7 +249,7 @@ def off_the_lines(vertices, topology, step, directions, which=None):
 
 
 def trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, farthest=False, cull=False,
-                  facing=None, skip=None):
+                  facing=None, skip=None, outlines=None):
     """Each ray's nearest (or, with ``farthest``, farthest) hit on the given layers (triangles of
     the ray's own segments only: ``segment`` is (n,) or (n, 2) with -1 for no second one).
 
@@ -224,7 +262,11 @@ def trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, f
     the gap between the legs, is not in front of the near side. Rays go on past such hits,
     and past triangles of segments they may not meet (a ray exactly through an edge between
     such a triangle and one it may meet misses both: measure zero, unlike a BVH per segment).
-    Rays where ``skip`` (bool per ray, or None) holds are not traced.
+    Rays where ``skip`` (bool per ray, or None) holds are not traced. With ``outlines`` = (per
+    layer its crease edges as sorted vertex pairs or None, a distance per ray), a hit that close
+    to a crease meets nothing there: the ray passes on. A probe that close is a tie between
+    meeting the layer and passing beside it, which float32 decides by round-off (see
+    off_the_lines); it is decided the same way every time instead.
     """
     n = len(origins)
     best_t = np.full(n, -np.inf if farthest else np.inf)
@@ -301,7 +343,13 @@ def trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, f
             if ids is not None:
                 face = ids[face]
             ok = allowed[idx[live], scenes.face_segment[face]]
+            if outlines is not None and outlines[0][k] is not None and len(live):
+                ok &= ~_on_outline(scenes.vertices, rows(scenes.faces, face), outlines[0][k],
+                                   o[live] + ray_dir[live] * t_hit[:, None], outlines[1][idx[live]])
             if facing is not None and len(live):
+                # a triangle the probe runs along (a Solidify rim, a fold seen edge-on) is not in
+                # front of it: where along the rim the probe meets it is round-off, by millimetres
+                ok &= ~_grazing(scenes.vertices, rows(scenes.faces, face), ray_dir[live])
                 u, w = hits.bary[hits.hit, 0], hits.bary[hits.hit, 1]
                 nk = rows(facing[0][k], rows(scenes.faces, face))
                 n_hit = (1 - u - w)[:, None] * nk[:, 0] + u[:, None] * nk[:, 1] + w[:, None] * nk[:, 2]

@@ -5,7 +5,7 @@ import heapq
 import numpy as np
 import pytest
 
-from core.geometry.topology import path_distance, topology_of
+from core.geometry.topology import crease_edges, path_distance, topology_of
 from core.layering.boundary_pass import spread_from_hits
 from tests.core.layered_cases import sheet
 
@@ -114,3 +114,18 @@ def test_a_callers_faces_key_finds_the_topology_its_faces_are_filed_under():
     other = topology_of(f32[::-1], len(v), key=faces_key(f32[::-1]))
     assert other is not plain
     np.testing.assert_array_equal(np.unique(other.edges, axis=0), np.unique(plain.edges, axis=0))
+
+
+@pytest.mark.parametrize("angle, creased", [(30.0, False), (59.0, False), (61.0, True), (120.0, True)])
+def test_creases_are_the_edges_whose_triangles_turn_past_sixty_degrees(angle, creased):
+    """Two triangles hinged on one edge, against the angle between their normals; a fan's
+    inner edges (flat) and its boundary (one triangle) are never creases."""
+    a = np.radians(angle)
+    v = np.array([[0, 0, 0], [1, 0, 0], [0.5, 1, 0], [0.5, -np.cos(a), np.sin(a)]], float)
+    f = np.array([[0, 1, 2], [1, 0, 3]])
+    n = [np.cross(v[b] - v[a_], v[c] - v[a_]) for a_, b, c in f]
+    assert np.isclose(np.degrees(np.arccos(np.dot(n[0], n[1]) / np.linalg.norm(n[0]) / np.linalg.norm(n[1]))), angle)
+    got = crease_edges(v, topology_of(f, 4))
+    assert got.tolist() == ([[0, 1]] if creased else [])
+    fan_v, fan_f = sheet(n=4)
+    assert len(crease_edges(fan_v, topology_of(fan_f, len(fan_v)))) == 0
