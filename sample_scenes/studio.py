@@ -115,10 +115,13 @@ def render_passes(scene, folder, passes=("Image",)):
     out.base_path = str(folder) + "/"
     out.format.file_format = "OPEN_EXR"
     out.format.color_mode = "RGBA"
-    out.file_slots.clear()
-    for name in passes:
+    # the node's own first slot takes the first pass (removing a slot leaves a block Blender
+    # never frees: "Not freed memory blocks" at exit)
+    out.file_slots[0].path = passes[0]
+    for name in passes[1:]:
         out.file_slots.new(name)
-        tree.links.new(layers.outputs[name], out.inputs[name])
+    for k, name in enumerate(passes):
+        tree.links.new(layers.outputs[name], out.inputs[k])
     if bpy.ops.render.render() != {"FINISHED"}:
         raise RuntimeError(f"rendering {scene.name} with {scene.render.engine} failed")
     planes = {}

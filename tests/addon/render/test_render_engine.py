@@ -391,9 +391,8 @@ def test_each_view_layer_gets_its_own_passes(clean_scene, tmp_path):
         out = tree.nodes.new("CompositorNodeOutputFile")
         out.base_path = str(tmp_path / f"layer{k}") + "/"
         out.format.file_format = "OPEN_EXR"
-        out.file_slots.clear()
-        out.file_slots.new("IndexOB")
-        tree.links.new(node.outputs["IndexOB"], out.inputs["IndexOB"])
+        out.file_slots[0].path = "IndexOB"  # (its own slot: one removed is never freed)
+        tree.links.new(node.outputs["IndexOB"], out.inputs[0])
     assert bpy.ops.render.render() == {"FINISHED"}
     ball_pixels = []
     for k in range(2):
