@@ -65,7 +65,8 @@ def _markers(at, size):
     return bars
 
 
-def _bell_top(bell, n):
+def _bell_points(bell, n):
+    """The first n vertices of the bell as evaluated now, in its own space."""
     ev = bell.evaluated_get(bpy.context.evaluated_depsgraph_get())
     mesh = ev.to_mesh()
     try:
@@ -73,8 +74,12 @@ def _bell_top(bell, n):
         mesh.vertices.foreach_get("co", co)
     finally:
         ev.to_mesh_clear()
+    return co.reshape(-1, 3)[:n]
+
+
+def _bell_top(bell, n):
     world = np.array(bell.matrix_world)
-    top = co.reshape(-1, 3)[:n] @ world[:3, :3].T + world[:3, 3]
+    top = _bell_points(bell, n) @ world[:3, :3].T + world[:3, 3]
     return top[np.argmax(top[:, 2])]
 
 
@@ -95,14 +100,7 @@ def _render_sheet(scene, out, name, shots, width, height, samples, place_camera=
 
 
 def _bell_volume(bell, n, tris):
-    ev = bell.evaluated_get(bpy.context.evaluated_depsgraph_get())
-    mesh = ev.to_mesh()
-    try:
-        co = np.empty(len(mesh.vertices) * 3)
-        mesh.vertices.foreach_get("co", co)
-    finally:
-        ev.to_mesh_clear()
-    return bell3d.volume(co.reshape(-1, 3)[:n], tris)
+    return bell3d.volume(_bell_points(bell, n), tris)
 
 
 def run(args) -> int:
