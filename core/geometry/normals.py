@@ -1,8 +1,14 @@
-"""Vertex normals of triangle meshes."""
+"""Face and vertex normals of triangle meshes."""
 
 import numpy as np
 
 from .vectors import cross, rows, unit
+
+
+def face_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Unit geometric normal per triangle in its winding order (zero for a degenerate one)."""
+    a, b, c = (rows(vertices, np.asarray(faces)[:, k]) for k in range(3))
+    return unit(cross(b - a, c - a))
 
 
 def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:

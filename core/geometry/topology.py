@@ -9,6 +9,7 @@ from scipy.sparse import csgraph
 
 from .cache import Cache
 from .keys import digest
+from .normals import face_normals
 
 
 def edges_with_counts(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -32,9 +33,7 @@ def crease_edges(vertices, topology, crease_cos=0.5) -> np.ndarray:
     edges, faces = topology.edge_faces
     if not len(edges):
         return edges
-    f, v = topology.faces, np.asarray(vertices, dtype=np.float64)
-    n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
-    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    n = face_normals(np.asarray(vertices, dtype=np.float64), topology.faces)
     return edges[np.einsum("ij,ij->i", n[faces[:, 0]], n[faces[:, 1]]) < crease_cos]
 
 

@@ -48,7 +48,7 @@ def _probe(stack, k, aside, step, creases, skip):
     start = v + aside + normals[k] * gap
     t, layer, _, r, secs = trace_layers(start, -normals[k], stack.probe_len[k] + gap, stack.vseg2[k],
                                         stack.scenes, stack.above(k), farthest=True, facing=(normals, normals[k]),
-                                        skip=skip, outlines=(creases, np.full(len(v), 10 * abs(step))))
+                                        skip=skip, creases=(creases, np.full(len(v), 10 * abs(step))))
     stack.rays["push"] += r
     stack.push_trace_s += secs
     return t, layer

@@ -9,6 +9,7 @@ import time
 import numpy as np
 
 from ..geometry.keys import digest
+from ..geometry.normals import face_normals
 from ..geometry.vectors import box, norms, rows
 from ..rays.scene import RayScene, SceneUnion, step_past_hit
 from ..rays.scene_cache import kept_scene
@@ -187,17 +188,15 @@ _GRAZING_COS = 0.05  # about 87 degrees from the triangle's normal
 
 
 def _grazing(vertices, faces, directions):
-    """Per ray, whether it runs within _GRAZING_COS of its triangle's plane."""
-    a = vertices[faces[:, 0]]
-    n = np.cross(vertices[faces[:, 1]] - a, vertices[faces[:, 2]] - a)
-    size = norms(n)
-    cos = np.abs(np.einsum("ij,ij->i", n, directions)) / np.maximum(size * norms(directions), 1e-300)
-    return (cos < _GRAZING_COS) & (size > 0)
+    """Per ray (unit ``directions``), whether it runs within _GRAZING_COS of its triangle's plane
+    (a degenerate triangle has none)."""
+    n = face_normals(vertices, faces)
+    return (np.abs(np.einsum("ij,ij->i", n, directions)) < _GRAZING_COS) & (norms(n) > 0)
 
 
-def _on_outline(vertices, faces, edges, points, tolerance):
+def _on_edges(vertices, faces, edges, points, tolerance):
     """Per hit (its triangle's corners ``faces``, where it hit ``points``): within ``tolerance``
-    of one of the triangle's corners or edges that lies on the outline ``edges``."""
+    of one of the triangle's corners or edges that lies on ``edges`` (sorted vertex pairs)."""
     out = np.zeros(len(points), dtype=bool)
     if not len(edges):
         return out
@@ -249,7 +248,7 @@ def off_the_lines(vertices, topology, step, directions, which=None):
 
 
 def trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, farthest=False, cull=False,
-                  facing=None, skip=None, outlines=None):
+                  facing=None, skip=None, creases=None):
     """Each ray's nearest (or, with ``farthest``, farthest) hit on the given layers (triangles of
     the ray's own segments only: ``segment`` is (n,) or (n, 2) with -1 for no second one).
 
@@ -262,7 +261,7 @@ def trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, f
     the gap between the legs, is not in front of the near side. Rays go on past such hits,
     and past triangles of segments they may not meet (a ray exactly through an edge between
     such a triangle and one it may meet misses both: measure zero, unlike a BVH per segment).
-    Rays where ``skip`` (bool per ray, or None) holds are not traced. With ``outlines`` = (per
+    Rays where ``skip`` (bool per ray, or None) holds are not traced. With ``creases`` = (per
     layer its crease edges as sorted vertex pairs or None, a distance per ray), a hit that close
     to a crease meets nothing there: the ray passes on. A probe that close is a tie between
     meeting the layer and passing beside it, which float32 decides by round-off (see
@@ -343,9 +342,9 @@ def trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, f
             if ids is not None:
                 face = ids[face]
             ok = allowed[idx[live], scenes.face_segment[face]]
-            if outlines is not None and outlines[0][k] is not None and len(live):
-                ok &= ~_on_outline(scenes.vertices, rows(scenes.faces, face), outlines[0][k],
-                                   o[live] + ray_dir[live] * t_hit[:, None], outlines[1][idx[live]])
+            if creases is not None and creases[0][k] is not None and len(live):
+                ok &= ~_on_edges(scenes.vertices, rows(scenes.faces, face), creases[0][k],
+                                 o[live] + ray_dir[live] * t_hit[:, None], creases[1][idx[live]])
             if facing is not None and len(live):
                 # a triangle the probe runs along (a Solidify rim, a fold seen edge-on) is not in
                 # front of it: where along the rim the probe meets it is round-off, by millimetres
