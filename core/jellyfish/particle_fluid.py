@@ -36,19 +36,24 @@ class FluidBlowUp(RuntimeError):
 @dataclass
 class Box:
     """A rectangle [0, width] x [0, height]. ``periodic`` = (x, y); a side that is not periodic
-    is a no-slip wall moving along itself at ``wall_velocity[side]`` (default at rest)."""
+    is a no-slip wall moving along itself at ``wall_velocity[side]`` (default at rest), or a
+    mirror (a symmetry axis or a free-slip wall) if it is among ``mirrors``."""
 
     width: float
     height: float
     periodic: tuple = (False, False)
     wall_velocity: dict = field(default_factory=dict)
+    mirrors: tuple = ()
 
     def __post_init__(self):
         if not (np.isfinite([self.width, self.height]).all() and self.width > 0 and self.height > 0):
             raise ValueError(f"the box needs a finite size > 0, got {self.width} x {self.height}")
-        unknown = set(self.wall_velocity) - set(SIDES)
+        unknown = (set(self.wall_velocity) | set(self.mirrors)) - set(SIDES)
         if unknown:
-            raise ValueError(f"wall_velocity sides must be among {SIDES}, got {sorted(unknown)}")
+            raise ValueError(f"wall_velocity and mirrors sides must be among {SIDES}, got {sorted(unknown)}")
+        wrapped = {side for axis in (0, 1) if self.periodic[axis] for side in SIDES[2 * axis:2 * axis + 2]}
+        if wrapped & set(self.mirrors):
+            raise ValueError(f"a periodic side cannot be a mirror: {sorted(wrapped & set(self.mirrors))}")
 
 
 def _ghosts(points, box: Box, reach):
@@ -71,6 +76,11 @@ def _ghosts(points, box: Box, reach):
             for sel, plane, side in ((x < reach, 0.0, lo), (x > sizes[axis] - reach, sizes[axis], hi)):
                 p = pos[sel].copy()
                 p[:, axis] = 2 * plane - p[:, axis]
+                if side in box.mirrors:  # the normal component turns, the tangential one is kept
+                    flip = np.ones(2)
+                    flip[axis] = -1.0
+                    new.append((p, src[sel], flip * sign[sel], flip * offset[sel]))
+                    continue
                 wall = np.zeros(2)
                 wall[1 - axis] = box.wall_velocity.get(side, 0.0)
                 # no-slip: both components mirrored about the wall's own velocity
@@ -124,6 +134,7 @@ class LatticeFluid:
         self.n0, self.lam = float(full.density()[40]), float(full.lam()[40])
         self._column = np.concatenate([np.arange(self.n), self._src])
         self.u = np.zeros((self.n, 2))
+        self.volume = np.full(self.n, self.h**2)  # per unit depth: the water each particle stands for
         self.p = np.zeros(self.n)
         self.time = 0.0
         self.steps = 0
@@ -235,7 +246,11 @@ class LatticeFluid:
         u_mid = np.column_stack([self._sample(c, mid) for c in carry])
         start = self.points - dt * u_mid
         out = np.column_stack([self._sample(c, start) for c in coeffs])
-        return out - (out - u).mean(0)
+        return out - self._uniform_momentum(out - u)
+
+    def _uniform_momentum(self, change):
+        """The uniform velocity that carries the momentum of ``change``."""
+        return change.mean(0)
 
     _PAD = 4
 
@@ -265,6 +280,8 @@ class LatticeFluid:
         return spline_filter(out, order=3, mode="nearest")
 
     def _mirror(self, row, side, normal_axis, component):
+        if side in self.box.mirrors:
+            return -row if component == normal_axis else row
         wall = self.box.wall_velocity.get(side, 0.0) if component != normal_axis else 0.0
         return 2.0 * wall - row
 
@@ -396,10 +413,14 @@ class LatticeFluid:
             p -= p.mean()
         return u - dt / self.rho * self.gradient(p), p
 
+    def whole_section(self, values, odd=False):
+        """The lattice is the whole section already."""
+        return np.asarray(values)
+
     # --- measures -------------------------------------------------------------------
     def kinetic_energy(self) -> float:
-        """Per unit depth: 1/2 rho sum |u|^2 h^2."""
-        return 0.5 * self.rho * float((self.u**2).sum()) * self.h**2
+        """1/2 rho sum |u|^2 V (per unit depth in the plane)."""
+        return 0.5 * self.rho * float(((self.u**2).sum(1) * self.volume).sum())
 
     def momentum(self) -> np.ndarray:
-        return self.rho * self.u.sum(0) * self.h**2
+        return self.rho * (self.u * self.volume[:, None]).sum(0)

@@ -16,15 +16,16 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .bell import BellMap, BellShape, Creature, check_folds, contour, phase, resample
+from .axisymmetric_fluid import AxisymmetricFluid
+from .bell import BellMap, BellShape, Creature, SolidBell, check_folds, contour, phase, resample
 from .particle_fluid import Box, LatticeFluid
 
 
 @dataclass(frozen=True)
 class JellyfishConfig:
     bell: BellShape = field(default_factory=BellShape)
-    box: float = 0.20  # m, the periodic domain's width
-    particles: int = 100  # per side
+    box: float = 0.20  # m, the domain's width (the cylinder's diameter round an axisymmetric bell)
+    particles: int = 100  # per side (across the whole width: half of them out from the axis)
     substeps: int = 14  # steps per contraction-relaxation cycle (the thesis' Table 3.1)
     period: float = 1.0  # s per cycle
     # m^2/s: ten times water's. A 100 x 100 lattice (2 mm) does not resolve water's boundary layers
@@ -36,14 +37,18 @@ class JellyfishConfig:
     weights: tuple = (0.4, 0.3, 0.3)  # w_d, w_b, w_e of eq. 3.14
     min_thickness_cells: float = 1.5
     cfl: float = 1.0
-    # velocity imposed and projected this many times per inner step: more change the cruising
-    # cycles' path by -13% (4) to +25% (16), not monotonically (docs/REPORT.md); one is the cheapest
-    forcing_iterations: int = 1
+    # velocity imposed and projected this many times per inner step: one leaves the bell leakier
+    # (6 cycles 14% short of 16 rounds at Courant 0.125, round the axis); two cost 13% more (REPORT)
+    forcing_iterations: int = 2
     box_height: float | None = None  # m along the swimming axis; None: the box's width (square)
     max_inner_steps: int = 128  # per substep: a stroke too fast for the lattice is refused, not run for hours
     # cycles each creature swims from rest in a search, its fitness over all of them: one ranks 16
     # random strokes' fitness as 8 do with Spearman 0.96, three 0.985, at three times the cost (REPORT)
     cycles: int = 1
+    # "axisymmetric": the section turned about the axis, the bell of revolution the 3D animal is;
+    # "planar": the thesis' 2D water, a trough infinitely long out of the plane, which carries
+    # more water along for its volume: the same stroke swims about half as far (REPORT)
+    fluid: str = "axisymmetric"
 
     def __post_init__(self):
         if self.substeps < 1:
@@ -52,6 +57,10 @@ class JellyfishConfig:
             raise ValueError(f"period must be finite and > 0, got {self.period}")
         if self.box <= self.bell.diameter:
             raise ValueError(f"the box ({self.box} m) must be wider than the bell ({self.bell.diameter} m)")
+        if self.fluid not in ("axisymmetric", "planar"):
+            raise ValueError(f"fluid is 'axisymmetric' or 'planar', got {self.fluid!r}")
+        if self.fluid == "axisymmetric" and self.particles % 2:
+            raise ValueError(f"particles must be even round the axis (half on each side), got {self.particles}")
         if int(self.cycles) != self.cycles or self.cycles < 1:
             raise ValueError(f"cycles must be a whole number >= 1, got {self.cycles}")
         if int(self.max_inner_steps) != self.max_inner_steps or self.max_inner_steps < 1:
@@ -163,18 +172,19 @@ class _BellForcing:
         self.contraction = contraction
         self.rest, self.left = contour(config.bell)
         # as far from the bottom as in the square box: a taller box leaves the room ahead
-        self.offset = np.array([0.5 * config.box, 0.5 * config.box - 0.5 * config.bell.height])
+        axis = 0.0 if isinstance(fluid, AxisymmetricFluid) else 0.5 * config.box
+        self.offset = np.array([axis, 0.5 * config.box - 0.5 * config.bell.height])
         self.y = 0.0  # swum so far
         self.speed = 0.0
         self.mask = np.zeros(fluid.n, dtype=bool)
         self.momentum0 = 0.0
         self.reach = 0.5 * config.min_thickness_cells * fluid.h
         self._at, self._covered, self._rate = None, None, None
+        self.solid = SolidBell(config.bell, bell_map, axisymmetric=isinstance(fluid, AxisymmetricFluid))
 
     def outline(self, t):
         s = phase(t / self.config.period, self.contraction)
-        pts = self.rest + self.map.displacement_at(self.rest, s)
-        pts, _ = resample(pts, 0.5 * self.fluid.h, self.left)
+        pts, _ = resample(self.solid.at(self.rest, s), 0.5 * self.fluid.h, self.left)
         return pts + self.offset + [0.0, self.y]
 
     def covered(self, polygon):
@@ -218,15 +228,16 @@ class _BellForcing:
         if self._at != t:  # the same bell, moving the same way, in every round and after the projection
             self._at, self._covered = t, self.covered(self.outline(t))
             s = phase(tau, self.contraction)
-            self._rate = self.map.spline(self.map.rest_of(self.local(self.fluid.points[self._covered]), s))
+            self._rate = self.solid.rate(self.local(self.fluid.points[self._covered]), s)
         mask = self._covered
         w = rate * self._rate
         n = int(mask.sum())
         if n == 0:
             return u
         # total momentum along the axis stays what it was: fluid + bell (water-dense)
-        fluid_y = u[~mask, 1].sum()
-        self.speed = (self.momentum0 - fluid_y - w[:, 1].sum()) / n
+        volume = self.fluid.volume
+        fluid_y = u[~mask, 1] @ volume[~mask]
+        self.speed = (self.momentum0 - fluid_y - w[:, 1] @ volume[mask]) / volume[mask].sum()
         if final:  # the projected field is kept as it is; the bell moves by it
             self.y += self.speed * dt
             self.mask = mask
@@ -252,6 +263,15 @@ def _inside(points, polygon):
     with np.errstate(divide="ignore", invalid="ignore"):
         xs = a[:, 0] + (y - a[:, 1]) * (b[:, 0] - a[:, 0]) / (b[:, 1] - a[:, 1])
     return (crosses & (x < xs)).sum(1) % 2 == 1
+
+
+def _water(config):
+    options = dict(viscosity=config.viscosity, density=config.density, cfl=config.cfl,
+                   forcing_iterations=config.forcing_iterations)
+    if config.fluid == "axisymmetric":
+        return AxisymmetricFluid(0.5 * config.box, config.height, config.particles // 2, config.rows, **options)
+    return LatticeFluid(Box(config.box, config.height, periodic=(True, True)), nx=config.particles, ny=config.rows,
+                        **options)
 
 
 def simulate_cycle(creature: Creature, config: JellyfishConfig | None = None, sample_fields=False,
@@ -281,9 +301,7 @@ def simulate_cycles(creature: Creature, config: JellyfishConfig | None = None, c
     reason = check_folds(config.bell, bell_map)
     if reason is not None:
         return refused(reason)
-    fluid = LatticeFluid(Box(config.box, config.height, periodic=(True, True)), nx=config.particles, ny=config.rows,
-                         viscosity=config.viscosity, density=config.density, cfl=config.cfl,
-                         forcing_iterations=config.forcing_iterations)
+    fluid = _water(config)
     dt = config.period / config.substeps
     # the bell's own fastest point may not cross more than a Courant number of particles per
     # inner step either (the fluid only sees its speed once it has moved)
@@ -304,14 +322,16 @@ def simulate_cycles(creature: Creature, config: JellyfishConfig | None = None, c
         for _ in range(split):
             inner += fluid.step(dt / split, forcing, max_inner=config.max_inner_steps)
         fluid_part = ~forcing.mask
-        loss += float((fluid.u[fluid_part] ** 2).sum()) * fluid.h**2
+        loss += float((fluid.u[fluid_part] ** 2).sum(1) @ fluid.volume[fluid_part])
         speeds.append(forcing.speed)
         swum.append(forcing.y)
         if (k + 1) % config.substeps == 0:
             per_cycle.append(forcing.y - sum(per_cycle))
             loss_per_cycle.append(loss - sum(loss_per_cycle))
         if sample_fields:
-            fields.append(((k + 1) * dt, fluid.u.copy(), fluid.vorticity(), forcing.mask.copy()))
+            u = np.column_stack([fluid.whole_section(fluid.u[:, 0], odd=True), fluid.whole_section(fluid.u[:, 1])])
+            fields.append(((k + 1) * dt, u, fluid.whole_section(fluid.vorticity(), odd=True),
+                           fluid.whole_section(forcing.mask.copy())))
     timings = {**fluid.timings, "inner_steps": inner, "total_s": time.perf_counter() - t0}
     return CycleResult(forcing.y, energy_b, loss, fitness(forcing.y, energy_b, loss, config, scales), None, timings,
                        np.array(speeds), np.array(swum), fields, np.array(per_cycle), np.array(loss_per_cycle))
