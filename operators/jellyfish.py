@@ -11,6 +11,10 @@ METHODS = (
     ("de", "Differential Evolution", "scipy's differential evolution on the same budget"),
     ("random", "Random Search", "Uniform random strokes (the baseline)"),
 )
+WATERS = (
+    ("axisymmetric", "Round the Axis", "The water round a bell of revolution, as the 3D jellyfish swims in it"),
+    ("planar", "Planar", "The thesis' 2D water: a bell as long as the water is deep, which swims about half as far"),
+)
 
 
 class _NeedsJellyfish:
@@ -60,8 +64,9 @@ class DEFORMRT_OT_optimize_jellyfish(_NeedsJellyfish, BackgroundOperator, bpy.ty
     method: bpy.props.EnumProperty(name="Method", items=METHODS, default="ga-sa")
     population: bpy.props.IntProperty(name="Population", default=10, min=2, max=200, step=2)
     generations: bpy.props.IntProperty(name="Generations", default=30, min=1, max=1000)
-    particles: bpy.props.IntProperty(name="Resolution", description="Fluid particles per side", default=100,
-                                     min=20, max=400)
+    particles: bpy.props.IntProperty(name="Resolution", description="Fluid particles per side (an odd count "
+                                     "is rounded up)", default=100, min=20, max=400)
+    water: bpy.props.EnumProperty(name="Water", items=WATERS, default="axisymmetric")
     seed: bpy.props.IntProperty(name="Seed", default=0, min=0)
     workers: bpy.props.IntProperty(name="Processes", description="0 uses every core", default=0, min=0, max=256)
 
@@ -72,7 +77,7 @@ class DEFORMRT_OT_optimize_jellyfish(_NeedsJellyfish, BackgroundOperator, bpy.ty
     def prepare(self, context):
         population = self.population + self.population % 2  # pairs of parents
         return {"bell": jellyfish.jellyfish_of(context.active_object).name, "population": population,
-                "config": default_config(particles=self.particles)}
+                "config": default_config(particles=self.particles + self.particles % 2, fluid=self.water)}
 
     def work(self, job, progress, stop):
         result = optimize(job["config"], self.method, self.seed, population=job["population"],

@@ -118,7 +118,7 @@ def store_stroke(bell, result, config):
         "method": result.method, "fitness": result.fitness, "evaluations": result.evaluations,
         "stopped": result.stopped, "controls": c.controls.tolist(), "destinations": c.destinations.tolist(),
         "contraction": c.contraction, "path_m": result.cycle.path_m, "speed": result.cycle.speed.tolist(),
-        "period": config.period, "particles": config.particles})
+        "period": config.period, "particles": config.particles, "fluid": config.fluid})
 
 
 def stroke_of(bell):
@@ -127,7 +127,9 @@ def stroke_of(bell):
     if PROP_STROKE in bell:
         s = json.loads(bell[PROP_STROKE])
         creature = Creature(np.array(s["controls"]), np.array(s["destinations"]), s["contraction"])
-        return creature, default_config(particles=s["particles"], period=s["period"]), True
+        # strokes stored before the water of revolution were found in the planar water
+        return creature, default_config(particles=s["particles"], period=s["period"],
+                                        fluid=s.get("fluid", "planar")), True
     cfg = default_config(particles=60)
     return default_creature(cfg), cfg, False
 

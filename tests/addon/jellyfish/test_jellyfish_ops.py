@@ -59,10 +59,18 @@ def test_optimise_in_worker_processes_then_bake_a_swim_that_keeps_its_volume(ext
     # two worker processes import the installed extension's core without Blender's add-on machinery
     assert bpy.ops.deformrt.optimize_jellyfish(particles=30, population=4, generations=1, workers=2) == {"FINISHED"}
     stroke = json.loads(jelly["deformrt_jellyfish_stroke"])
-    assert stroke["evaluations"] == 8 and stroke["method"] == "ga-sa"
+    assert stroke["evaluations"] == 8 and stroke["method"] == "ga-sa" and stroke["fluid"] == "axisymmetric"
     creature = core_bell.Creature(np.array(stroke["controls"]), np.array(stroke["destinations"]), stroke["contraction"])
     replay = core_jf.simulate_cycle(creature, core_jf.default_config(particles=30))
     assert replay.path_m == pytest.approx(stroke["path_m"], rel=1e-9)
+
+    # a stroke stored before the water of revolution replays in the planar water it was found in
+    animal = sub(extension, "addon.jellyfish.animal")
+    older = jelly["deformrt_jellyfish_stroke"]
+    jelly["deformrt_jellyfish_stroke"] = json.dumps({k: v for k, v in stroke.items() if k != "fluid"})
+    assert animal.stroke_of(jelly)[1].fluid == "planar"
+    jelly["deformrt_jellyfish_stroke"] = older
+    assert animal.stroke_of(jelly)[1].fluid == "axisymmetric"
 
     scene = bpy.context.scene
     assert bpy.ops.deformrt.bake_jellyfish(frame_start=1, frame_end=25, cycle_frames=12) == {"FINISHED"}
