@@ -3,9 +3,11 @@ relaxes by its creature's space map inside the particle fluid, and swims by what
 
 The bell acts on the fluid by direct forcing: lattice particles inside the bell (or closer to
 its contour than ``min_thickness`` / 2, so the thin margin still blocks the flow) take the
-bell's velocity, its deformation rate from the space map plus its swimming speed V along the
-axis. The domain is periodic and nothing else pushes, so fluid and bell (density equal to
-water's, as in the thesis) keep their total momentum: V follows from it at every step. This
+bell's velocity, its deformation rate (the space map's, scaled so the tissue keeps its volume:
+``SolidBell``) plus its swimming speed V along the axis. The water is round the bell's axis
+(``fluid="axisymmetric"``, the default) or the thesis' plane; it wraps along the axis, and
+its sides (periodic, or a free-slip wall round the axis) take no axial momentum, so fluid and
+bell (density equal to water's, as in the thesis) keep their total: V follows from it at every step. This
 is the thesis' fluid force on the bell (eq. 3.10-3.12) integrated implicitly, which stays
 stable although the bell is no heavier than the water it displaces.
 """
@@ -38,7 +40,7 @@ class JellyfishConfig:
     min_thickness_cells: float = 1.5
     cfl: float = 1.0
     # velocity imposed and projected this many times per inner step: one leaves the bell leakier
-    # (6 cycles 14% short of 16 rounds at Courant 0.125, round the axis); two cost 13% more (REPORT)
+    # (8 cycles 16% short of the finest run, round the axis); two cost 18% more time (REPORT)
     forcing_iterations: int = 2
     box_height: float | None = None  # m along the swimming axis; None: the box's width (square)
     max_inner_steps: int = 128  # per substep: a stroke too fast for the lattice is refused, not run for hours

@@ -20,7 +20,7 @@ def _pierces(start, end, tri):
         q = np.cross(s, e1[None])
         v = np.einsum("rk,rmk->rm", d, q) / det
         t = np.einsum("mk,rmk->rm", e2, q) / det
-    return (np.abs(det) > 1e-14) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t >= 0) & (t <= 1)
+        return (np.abs(det) > 1e-14) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t >= 0) & (t <= 1)
 
 
 def brute_hidden(vertices, faces):
