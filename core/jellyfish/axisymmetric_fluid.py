@@ -20,7 +20,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .particle_fluid import PRESSURE_FACTORS, Box, LatticeFluid
+from .particle_fluid import Box, LatticeFluid
 
 
 class AxisymmetricFluid(LatticeFluid):
@@ -83,35 +83,16 @@ class AxisymmetricFluid(LatticeFluid):
         return (super()._pressure_operator() +
                 sp.diags(1.0 / self.radius) @ self._radial_gradient() @ self._unknowns(np.ones(len(self._src)))).tocsr()
 
-    def _pressure_system(self):
-        key = ("axisymmetric", self.box.width, self.box.height, self.nx, self.ny, self.re)
-        if self._pressure is None:
-            self._pressure = PRESSURE_FACTORS.get(key)
-        if self._pressure is None:
-            lap = self._pressure_operator()
-            pin = self.n - 1  # the outer top corner, far from the body
-            pinned = lap.tolil()
-            pinned[pin, :] = 0.0
-            pinned[pin, pin] = 1.0
-            # the left null vector: lap^T y = 0 but at the pin (which follows: lap's columns sum to zero)
-            transposed = lap.T.tolil()
-            transposed[pin, :] = 0.0
-            transposed[pin, pin] = 1.0
-            unit = np.zeros(self.n)
-            unit[pin] = 1.0
-            null = spla.splu(transposed.tocsc()).solve(unit)
-            self._pressure = (lap, spla.splu(pinned.tocsc()), null, pin)
-            PRESSURE_FACTORS.put(key, self._pressure)
-        return self._pressure
+    _pin = -1  # the outer top corner, far from the body
 
-    def _project(self, u, dt):
-        _, lu, null, pin = self._pressure_system()
-        rhs = self.rho / dt * self.divergence(u)
-        b = rhs - null @ rhs / null.sum()  # a uniform source: what the side walls' flux cannot carry
-        b[pin] = 0.0
-        p = lu.solve(b)
-        p -= p.mean()
-        return u - dt / self.rho * self.gradient(p), p
+    def _left_null(self, lap, pin):
+        """lap^T y = 0 but at the pin (which follows: lap's columns sum to zero), y at the pin 1."""
+        transposed = lap.T.tolil()
+        transposed[pin, :] = 0.0
+        transposed[pin, pin] = 1.0
+        unit = np.zeros(self.n)
+        unit[pin] = 1.0
+        return spla.splu(transposed.tocsc()).solve(unit)
 
     def _uniform_momentum(self, change):
         # only along the axis: a uniform u_r is neither divergence-free nor without vorticity here

@@ -373,20 +373,30 @@ class LatticeFluid:
     def _pressure_operator(self):
         return self._nb.laplacian_matrix(self.n0, self.lam, self._column)
 
+    # the pressure is pinned at this particle (the walls and periodic sides fix it only up to a
+    # constant; a bordered system would fill the factor densely), then shifted to mean zero
+    _pin = 0
+
+    def _left_null(self, lap, pin):
+        """The vector the Poisson right-hand side must be orthogonal to; None: the constant (the
+        planar operator is symmetric)."""
+        return None
+
     def _pressure_system(self):
-        key = (self.box.width, self.box.height, tuple(self.box.periodic), self.nx, self.ny, self.re,
-               self.pressure_solver)
+        key = (type(self).__name__, self.box.width, self.box.height, tuple(self.box.periodic), self.box.mirrors,
+               self.nx, self.ny, self.re, self.pressure_solver)
         if self._pressure is None:
             self._pressure = PRESSURE_FACTORS.get(key)
         if self._pressure is None:
             lap = self._pressure_operator().tolil()
-            # the walls and periodic sides fix the pressure only up to a constant: pin particle
-            # 0, then shift to mean zero (a bordered system would fill the factor densely)
+            pin = self._pin if self._pin >= 0 else self.n + self._pin
             pinned = lap.copy()
-            pinned[0, :] = 0.0
-            pinned[0, 0] = 1.0
+            pinned[pin, :] = 0.0
+            pinned[pin, pin] = 1.0
             lap = lap.tocsr()
-            self._pressure = (lap, spla.splu(pinned.tocsc()) if self.pressure_solver == "direct" else None)
+            direct = self.pressure_solver == "direct"
+            self._pressure = (lap, spla.splu(pinned.tocsc()) if direct else None,
+                              self._left_null(lap, pin) if direct else None, pin)
             PRESSURE_FACTORS.put(key, self._pressure)
         return self._pressure
 
@@ -399,11 +409,12 @@ class LatticeFluid:
             phi[0, 0] = 0.0  # its symbol is zero but for round-off
             return (u - np.column_stack([self._values(gx * phi), self._values(gy * phi)]),
                     self.rho / dt * self._values(phi))
-        lap, lu = self._pressure_system()
+        lap, lu, null, pin = self._pressure_system()
         rhs = self.rho / dt * self.divergence(u)
         if lu is not None:
-            b = rhs - rhs.mean()
-            b[0] = 0.0
+            # a uniform source takes what the sides cannot carry: the system is then solvable exactly
+            b = rhs - (rhs.mean() if null is None else null @ rhs / null.sum())
+            b[pin] = 0.0
             p = lu.solve(b)
             p -= p.mean()
         else:

@@ -174,15 +174,15 @@ class _BellForcing:
         self.contraction = contraction
         self.rest, self.left = contour(config.bell)
         # as far from the bottom as in the square box: a taller box leaves the room ahead
-        axis = 0.0 if isinstance(fluid, AxisymmetricFluid) else 0.5 * config.box
-        self.offset = np.array([axis, 0.5 * config.box - 0.5 * config.bell.height])
+        round_axis = isinstance(fluid, AxisymmetricFluid)  # the lattice starts at the axis
+        self.offset = np.array([0.0 if round_axis else 0.5 * config.box, 0.5 * config.box - 0.5 * config.bell.height])
         self.y = 0.0  # swum so far
         self.speed = 0.0
         self.mask = np.zeros(fluid.n, dtype=bool)
         self.momentum0 = 0.0
         self.reach = 0.5 * config.min_thickness_cells * fluid.h
         self._at, self._covered, self._rate = None, None, None
-        self.solid = SolidBell(config.bell, bell_map, axisymmetric=isinstance(fluid, AxisymmetricFluid))
+        self.solid = SolidBell(config.bell, bell_map, axisymmetric=round_axis)
 
     def outline(self, t):
         s = phase(t / self.config.period, self.contraction)
