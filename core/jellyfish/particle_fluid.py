@@ -22,6 +22,7 @@ import scipy.sparse.linalg as spla
 from scipy.ndimage import map_coordinates, spline_filter
 
 from ..geometry.cache import Cache
+from .body_projection import project_with_body
 from .mps import Neighbours, lattice
 
 SIDES = ("left", "right", "bottom", "top")
@@ -95,7 +96,7 @@ class LatticeFluid:
     """Velocity on an nx x ny lattice of particles filling ``box``; ``step(dt)`` advances it."""
 
     def __init__(self, box: Box, nx: int, ny: int | None = None, viscosity=1e-6, density=1000.0,
-                 body_force=(0.0, 0.0), re_factor=2.1, cfl=1.0, pressure_solver="auto", forcing_iterations=1):
+                 body_force=(0.0, 0.0), re_factor=2.1, cfl=1.0, pressure_solver="auto", forcing_corrections=1):
         ny = nx if ny is None else ny
         if nx < 4 or ny < 4:
             raise ValueError(f"the lattice needs at least 4 x 4 particles, got {nx} x {ny}")
@@ -108,9 +109,9 @@ class LatticeFluid:
             raise ValueError(f"density must be finite and > 0, got {density}")
         if not (0 < cfl <= 5):
             raise ValueError(f"cfl must be in (0, 5], got {cfl}")
-        if int(forcing_iterations) != forcing_iterations or forcing_iterations < 1:
-            raise ValueError(f"forcing_iterations must be a whole number >= 1, got {forcing_iterations}")
-        self.forcing_iterations = int(forcing_iterations)
+        if int(forcing_corrections) != forcing_corrections or forcing_corrections < 0:
+            raise ValueError(f"forcing_corrections must be a whole number >= 0, got {forcing_corrections}")
+        self.forcing_corrections = int(forcing_corrections)
         if pressure_solver not in ("auto", "spectral", "direct", "krylov"):
             raise ValueError("pressure_solver is 'auto', 'spectral', 'direct' or 'krylov'")
         if pressure_solver == "spectral" and not all(box.periodic):
@@ -140,6 +141,7 @@ class LatticeFluid:
         self.steps = 0
         self._viscous = {}
         self._pressure = None
+        self.forcing_miss = 0.0  # the last step's largest |u - body velocity| on a forced body, m/s
         self.timings = {"advect_s": 0.0, "viscous_s": 0.0, "pressure_s": 0.0}
 
     # --- values at ghosts -------------------------------------------------------------
@@ -172,9 +174,9 @@ class LatticeFluid:
 
     def step(self, dt: float, forcing=None, max_inner: int | None = None) -> int:
         """Advance by ``dt`` in as many equal inner steps as the Courant limit needs; returns
-        how many. dt = 0 does nothing. ``forcing(u, t, dt, final) -> u`` imposes a body's velocity
-        on the particles it covers (direct forcing) before each projection; it is called once more
-        with final=True on the projected field, to move the body, and its answer is not kept.
+        how many. dt = 0 does nothing. ``forcing.body(t)`` gives the body's ``ImposedBody`` at the
+        end of each inner step, imposed inside its projection with ``forcing_corrections`` GMRES
+        corrections (body_projection); ``forcing.moved(u, dt)`` is then told the field kept.
         A step that would need more than ``max_inner`` inner steps raises FluidBlowUp."""
         if not (np.isfinite(dt) and dt >= 0):
             raise ValueError(f"dt must be finite and >= 0, got {dt}")
@@ -208,18 +210,18 @@ class LatticeFluid:
         t1 = time.perf_counter()
         u = self._viscous_step(u, dt)
         t2 = time.perf_counter()
-        # Imposing the body's velocity and projecting in turn: each round brings the field closer
-        # to one that is both divergence-free and the body's own where the body is (multi-direct
-        # forcing). The field kept is the projected one: imposing the body once more after it would
-        # leave a divergence at the body's surface, from which the next advection makes momentum
-        # that the body's momentum balance then takes from the body (a bell swimming backwards).
-        for _ in range(self.forcing_iterations if forcing is not None else 1):
-            if forcing is not None:
-                u = forcing(u, self.time + dt, dt, False)
+        if forcing is None:
             u, dp = self._project(u, dt)
             self.p = self.p + dp
-        if forcing is not None:
-            forcing(u, self.time + dt, dt, True)
+        else:
+            # the body's velocity imposed inside the projection; the field kept is the projected one:
+            # imposing the body once more after it would leave a divergence at the body's surface,
+            # from which the next advection makes momentum that a free body's momentum balance then
+            # takes from the body (a bell swimming backwards)
+            body = forcing.body(self.time + dt)
+            out = project_with_body(lambda f: self._project(f, dt), u, body, self.volume, self.forcing_corrections)
+            u, self.p, self.forcing_miss = out.u, out.p, out.miss
+            forcing.moved(u, dt)
         self.u = u
         t3 = time.perf_counter()
         self.timings["advect_s"] += t1 - t0

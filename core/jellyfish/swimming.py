@@ -20,6 +20,7 @@ from scipy.spatial import cKDTree
 
 from .axisymmetric_fluid import AxisymmetricFluid
 from .bell import BellMap, BellShape, Creature, SolidBell, check_folds, contour, phase, resample
+from .body_projection import ImposedBody
 from .particle_fluid import Box, LatticeFluid
 
 
@@ -33,15 +34,17 @@ class JellyfishConfig:
     # m^2/s: ten times water's. A 100 x 100 lattice (2 mm) does not resolve water's boundary layers
     # (a Stokes layer sqrt(nu T / pi) of 0.6 mm): its cruising path then depends on the time step by
     # -20% to +55%, set by the advection's own damping. At 1e-5 (a Reynolds number of about 100 on
-    # the bell, where 2D jellyfish studies work) steps, rounds and lattice agree within 10% (REPORT)
+    # the bell, where 2D jellyfish studies work) steps, corrections and lattice agree within 20% (REPORT)
     viscosity: float = 1.0e-5
     density: float = 1000.0
     weights: tuple = (0.4, 0.3, 0.3)  # w_d, w_b, w_e of eq. 3.14
     min_thickness_cells: float = 1.5
     cfl: float = 1.0
-    # velocity imposed and projected this many times per inner step: one leaves the bell leakier
-    # (8 cycles 16% short of the finest run, round the axis); two cost 18% more time (REPORT)
-    forcing_iterations: int = 2
+    # GMRES corrections of the bell's velocity after each inner step's projection, one projection
+    # each. With none the bell's margin leaks (6 cycles 33% short of 8 corrections at Courant 0.25
+    # on the same lattice), one barely helps (-31%), two are within 8% (at Courant 1 the corrections
+    # converge to 15% short, the rest is the time step's) for 32% more time than none (REPORT)
+    forcing_corrections: int = 2
     box_height: float | None = None  # m along the swimming axis; None: the box's width (square)
     max_inner_steps: int = 128  # per substep: a stroke too fast for the lattice is refused, not run for hours
     # cycles each creature swims from rest in a search, its fitness over all of them: one ranks 16
@@ -167,7 +170,7 @@ def reference_scales(config, creature=None, cycles: int | None = None) -> Fitnes
 
 
 class _BellForcing:
-    """Imposes the bell's velocity on the particles it covers and moves it by momentum balance."""
+    """The bell as a body the fluid imposes (``body``) and that swims by momentum balance (``moved``)."""
 
     def __init__(self, fluid: LatticeFluid, config: JellyfishConfig, bell_map: BellMap, contraction: float):
         self.fluid, self.config, self.map = fluid, config, bell_map
@@ -223,30 +226,28 @@ class _BellForcing:
         out[box] = _inside(q, polygon) | np.isfinite(dist)
         return out
 
-    def __call__(self, u, t, dt, final):
-        cfg = self.config
-        tau = (t / cfg.period) % 1.0
-        rate = _phase_rate(tau, self.contraction) / cfg.period
-        if self._at != t:  # the same bell, moving the same way, in every round and after the projection
+    def body(self, t) -> ImposedBody:
+        """The bell at time t: the particles it covers, its deformation rate there, free to swim
+        along the axis with the momentum of water and bell kept."""
+        tau = (t / self.config.period) % 1.0
+        if self._at != t:
             self._at, self._covered = t, self.covered(self.outline(t))
-            s = phase(tau, self.contraction)
-            self._rate = self.solid.rate(self.local(self.fluid.points[self._covered]), s)
+            self._rate = self.solid.rate(self.local(self.fluid.points[self._covered]), phase(tau, self.contraction))
+        w = _phase_rate(tau, self.contraction) / self.config.period * self._rate
+        return ImposedBody(self._covered, w, free_axis=1, momentum=self.momentum0)
+
+    def moved(self, u, dt):
+        """The bell swims by the field kept: its speed is what the water on its particles carries
+        beyond its own deformation, so water and bell keep their total momentum exactly."""
         mask = self._covered
-        w = rate * self._rate
-        n = int(mask.sum())
-        if n == 0:
-            return u
-        # total momentum along the axis stays what it was: fluid + bell (water-dense)
+        if not mask.any():
+            return
+        body = self.body(self._at)
         volume = self.fluid.volume
-        fluid_y = u[~mask, 1] @ volume[~mask]
-        self.speed = (self.momentum0 - fluid_y - w[:, 1] @ volume[mask]) / volume[mask].sum()
-        if final:  # the projected field is kept as it is; the bell moves by it
-            self.y += self.speed * dt
-            self.mask = mask
-            return u
-        u = u.copy()
-        u[mask] = w + [0.0, self.speed]
-        return u
+        self.speed = (self.momentum0 - u[~mask, 1] @ volume[~mask] - body.velocity[:, 1] @ volume[mask]) / volume[
+            mask].sum()
+        self.y += self.speed * dt
+        self.mask = mask
 
 
 def _phase_rate(tau, contraction):
@@ -269,7 +270,7 @@ def _inside(points, polygon):
 
 def _water(config):
     options = dict(viscosity=config.viscosity, density=config.density, cfl=config.cfl,
-                   forcing_iterations=config.forcing_iterations)
+                   forcing_corrections=config.forcing_corrections)
     if config.fluid == "axisymmetric":
         return AxisymmetricFluid(0.5 * config.box, config.height, config.particles // 2, config.rows, **options)
     return LatticeFluid(Box(config.box, config.height, periodic=(True, True)), nx=config.particles, ny=config.rows,
