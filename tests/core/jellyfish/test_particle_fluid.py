@@ -206,6 +206,7 @@ def test_corrections_leave_the_field_closer_to_the_body_s_velocity():
     (lambda: LatticeFluid(Box(1.0, 1.0), nx=8, viscosity=-1.0), "viscosity"),
     (lambda: LatticeFluid(Box(1.0, 1.0), nx=8).step(np.nan), "dt"),
     (lambda: LatticeFluid(Box(1.0, 1.0), nx=8, forcing_corrections=-1), "forcing_corrections"),
+    (lambda: LatticeFluid(Box(1.0, 1.0, wall_velocity={"top": 1.0}), nx=8).step(0.01, object()), "walls at rest"),
 ])
 def test_bad_input_is_refused(make, match):
     with pytest.raises(ValueError, match=match):
