@@ -55,22 +55,17 @@ def project_with_body(project, u, body: ImposedBody, volume, corrections: int) -
     base = np.array(u, float)
     base[mask] = 0.0
     vol = volume[mask]
-    total = float(vol.sum()) if k else 1.0
-
-    def momentum_speed(g):
-        """The free speed that keeps the momentum with ``g`` on the body's particles."""
-        return (body.momentum - base[:, free] @ volume - g[:, free] @ vol) / total
-
-    g0 = np.array(body.velocity, float).reshape(k, 2)
-    speed0 = momentum_speed(g0) if free is not None and k else 0.0
-    if free is not None:
-        g0[:, free] += speed0
-    field = base.copy()
-    field[mask] = g0
-    u0, p0 = project(field)
-    target = np.array(body.velocity, float).reshape(k, 2)
+    own = np.asarray(body.velocity, float).reshape(k, 2)
+    # the free speed that keeps the momentum with the body's own motion on its particles
+    speed0 = 0.0
+    if free is not None and k:
+        speed0 = (body.momentum - base[:, free] @ volume - own[:, free] @ vol) / vol.sum()
+    target = own.copy()
     if free is not None:
         target[:, free] += speed0
+    field = base.copy()
+    field[mask] = target
+    u0, p0 = project(field)
     split = _MomentumSplit(vol, free)
     fields, y = _gmres(project, mask, split, (target - u0[mask]).ravel(), int(corrections))
     u_out, p_out, speed = u0.copy(), p0.copy(), speed0
@@ -78,7 +73,7 @@ def project_with_body(project, u, body: ImposedBody, volume, corrections: int) -
         u_out += coef * pu
         p_out += coef * pp
         speed += coef * split.speed(z)
-    miss_vec = np.array(body.velocity, float).reshape(k, 2) - u_out[mask]
+    miss_vec = own - u_out[mask]
     if free is not None:
         miss_vec[:, free] += speed
     return Projected(u_out, p_out, float(speed), float(np.abs(miss_vec).max(initial=0.0)))

@@ -184,7 +184,7 @@ class _BellForcing:
         self.mask = np.zeros(fluid.n, dtype=bool)
         self.momentum0 = 0.0
         self.reach = 0.5 * config.min_thickness_cells * fluid.h
-        self._at, self._covered, self._rate = None, None, None
+        self._at, self._covered, self._rate, self._body = None, None, None, None
         self.solid = SolidBell(config.bell, bell_map, axisymmetric=round_axis)
 
     def outline(self, t):
@@ -234,7 +234,8 @@ class _BellForcing:
             self._at, self._covered = t, self.covered(self.outline(t))
             self._rate = self.solid.rate(self.local(self.fluid.points[self._covered]), phase(tau, self.contraction))
         w = _phase_rate(tau, self.contraction) / self.config.period * self._rate
-        return ImposedBody(self._covered, w, free_axis=1, momentum=self.momentum0)
+        self._body = ImposedBody(self._covered, w, free_axis=1, momentum=self.momentum0)
+        return self._body
 
     def moved(self, u, dt):
         """The bell swims by the field kept: its speed is what the water on its particles carries
@@ -242,10 +243,9 @@ class _BellForcing:
         mask = self._covered
         if not mask.any():
             return
-        body = self.body(self._at)
         volume = self.fluid.volume
-        self.speed = (self.momentum0 - u[~mask, 1] @ volume[~mask] - body.velocity[:, 1] @ volume[mask]) / volume[
-            mask].sum()
+        own = self._body.velocity[:, 1] @ volume[mask]
+        self.speed = (self.momentum0 - u[~mask, 1] @ volume[~mask] - own) / volume[mask].sum()
         self.y += self.speed * dt
         self.mask = mask
 
