@@ -1,6 +1,7 @@
 """Resolve, clear and bake the layered garments of the scene."""
 
 import os
+import shutil
 
 import bpy
 
@@ -185,6 +186,36 @@ class DEFORMRT_OT_inspect_layers(_NeedsGarments, DeformRTOperator, bpy.types.Ope
         return {"FINISHED"}
 
 
+def _render_vertices(obj, depsgraph) -> tuple:
+    """(vertices, corners) the Alembic export writes per frame for ``obj``: what the viewport
+    evaluates, times four per level its subdivision modifiers add in the render."""
+    mesh = obj.evaluated_get(depsgraph).data
+    extra = sum(max(getattr(m, "render_levels", 0) - getattr(m, "levels", 0), 0)
+                for m in obj.modifiers if m.type in ("SUBSURF", "MULTIRES") and m.show_render)
+    return len(mesh.vertices) * 4 ** extra, len(mesh.loops) * 4 ** extra
+
+
+def cache_fits(path, objs, depsgraph, frames) -> None:
+    """Refuse, with what to do, a cache path that is a folder, or a disk that cannot take the cache
+    (Blender's Alembic writer aborts the whole program when its disk fills, unsaved work and all).
+    A missing folder is made."""
+    if os.path.isdir(path):
+        raise ValueError(f"{path} is a folder: give a file name for the cache (for example {path.rstrip(os.sep)}"
+                         f"{os.sep}layers.abc)")
+    folder = os.path.dirname(path) or "."
+    try:
+        os.makedirs(folder, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"Cannot make the folder {folder} for the cache: {exc.strerror}") from exc
+    # positions and normals per vertex, a UV per corner, each frame (measured files are smaller)
+    per_frame = sum(24 * v + 8 * c for v, c in (_render_vertices(o, depsgraph) for o in objs))
+    needed = 2 * per_frame * frames + (64 << 20)
+    free = shutil.disk_usage(folder).free
+    if free < needed:
+        raise ValueError(f"The disk of {folder} has {free / 2**20:.0f} MB free and the cache of {frames} frames may "
+                         f"need {needed / 2**20:.0f} MB: free some space or bake fewer frames; nothing was written")
+
+
 class DEFORMRT_OT_bake_frames(_NeedsGarments, DeformRTOperator, bpy.types.Operator):
     """Resolve every frame of a range and write body and garments to an Alembic cache that needs no DeformRT"""
 
@@ -214,6 +245,11 @@ class DEFORMRT_OT_bake_frames(_NeedsGarments, DeformRTOperator, bpy.types.Operat
             self.report({"ERROR"}, "Save the file first or give an absolute path for the cache")
             return {"CANCELLED"}
         path = bpy.path.abspath(self.filepath)
+        try:
+            cache_fits(path, [body, *garments], context.evaluated_depsgraph_get(),
+                       self.frame_end - self.frame_start + 1)
+        except ValueError as exc:
+            return self.fail(exc)
         settings = scene.deformrt
         was_on, frame = settings.resolve_on_frame_change, scene.frame_current
         selection = [o for o in scene.objects if o.select_get()]

@@ -154,13 +154,14 @@ def garment_parts(garment, scheme_name):
 @contextmanager
 def results_bypassed(garments):
     """Garments evaluate as their own stack makes them (any earlier result switched off)."""
-    shown = [results.set_enabled(g, False) for g in garments]
-    try:
-        yield
-    finally:
-        for g, was in zip(garments, shown, strict=True):
-            if was:
-                results.set_enabled(g, True)
+    with staleness.paused():
+        shown = [results.set_enabled(g, False) for g in garments]
+        try:
+            yield
+        finally:
+            for g, was in zip(garments, shown, strict=True):
+                if was:
+                    results.set_enabled(g, True)
 
 
 @contextmanager
@@ -204,6 +205,12 @@ def read_meshes(objs, depsgraph):
 def read_scene(scene, scheme_name):
     """Evaluated body and garments (world space) without any earlier result applied."""
     body, garments = layered_objects(scene)
+    for obj in [body, *garments]:  # every result must have its place before any is written
+        problem = result_stack.placement_problem(obj)
+        if problem:
+            raise LayeringInputError(problem)
+    for obj in [body, *garments]:  # read as fitted, not through what another field points at
+        results.disconnect_foreign(obj)
     # the body too, up to where its own result (covered skin) goes: a subdivided body is smoothed
     # inside its cage, so cloth clear of the cage is clear of what renders
     with fitted_cages([body, *garments]):
@@ -396,7 +403,8 @@ def clear_scene(scene) -> int:
     """Remove every garment's result; returns how many there were."""
     # data objects are removed on the way: collect the garments first
     wearing = [o for o in scene.objects if o.type == "MESH" and results.result_modifier(o) is not None]
-    return sum(results.clear(o) for o in wearing)
+    count = sum(results.clear(o) for o in wearing)
+    return count + results.remove_unused_data()
 
 
 def _write_parts(obj, parts, scheme):

@@ -96,6 +96,10 @@ def _build(group):
     group["deformrt_version"] = GROUP_VERSION
 
 
+def is_our_group(group) -> bool:
+    return group is not None and (group.name == GROUP_NAME or "deformrt_version" in group)
+
+
 def node_group():
     """The shared group, built on first use (or rebuilt when it is from another version)."""
     group = bpy.data.node_groups.get(GROUP_NAME)

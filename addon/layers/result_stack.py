@@ -18,7 +18,9 @@ SUBDIVIDING = frozenset({"SUBSURF", "MULTIRES"})
 
 
 def is_result(mod) -> bool:
-    return mod.type == "NODES" and mod.node_group is not None and mod.node_group.name == result_nodes.GROUP_NAME
+    """A DeformRT result modifier: its group is ours by its mark, whatever it is called (a garment
+    appended from another file brings the group as "DeformRT Result.001")."""
+    return mod.type == "NODES" and result_nodes.is_our_group(mod.node_group)
 
 
 def _uses_is_viewport(tree, seen=None) -> bool:
@@ -39,7 +41,11 @@ def differs_in_render(mod) -> bool:
     """True when this modifier can give the render other vertices than the viewport."""
     if not (mod.show_viewport or mod.show_render):
         return False  # off in both: it changes nothing anywhere
-    if mod.type in SUBDIVIDING or mod.show_viewport != mod.show_render:
+    if mod.show_viewport != mod.show_render:
+        return True
+    if mod.type == "MULTIRES":  # its viewport and render levels may agree (Subdivision's the GPU may still change)
+        return mod.levels != mod.render_levels
+    if mod.type in SUBDIVIDING:
         return True
     return mod.type == "NODES" and _uses_is_viewport(mod.node_group)
 
@@ -76,6 +82,20 @@ def before_result(obj) -> list:
             break
         out.append(m)
     return out
+
+
+def placement_problem(obj) -> str | None:
+    """Why the result cannot go where it must in this object's stack, or None. Blender lets
+    nothing run before a Multires (it needs the original mesh), so a Multires whose render level
+    differs from its viewport level leaves no place that both see alike."""
+    own = user_modifiers(obj)
+    late = next((m for m in own[cut_index(obj):] if m.type == "MULTIRES"), None)
+    if late is None:
+        return None
+    return (f"{obj.name}'s {late.name} has Viewport level {late.levels} and Render level {late.render_levels}: "
+            "DeformRT's result must run before modifiers that give the render other vertices, and Blender lets "
+            "nothing run before a Multires. Set both levels the same (the result then follows the Multires) "
+            "or apply it; nothing was changed")
 
 
 def in_place(obj, mod) -> bool:

@@ -18,6 +18,8 @@ BAKED_COLLECTION = scene_roles.BAKED_COLLECTION
 # On the data object: what the result was made for, and why it no longer fits (absent: it fits).
 FINGERPRINT_PROPERTY = "deformrt_made_for"
 STALE_PROPERTY = "deformrt_stale"
+# On the data object: the garment (an object pointer) DeformRT made it for.
+OWNER_PROPERTY = "deformrt_result_of"
 
 
 def result_modifier(obj):
@@ -25,11 +27,62 @@ def result_modifier(obj):
     return next((m for m in obj.modifiers if result_stack.is_result(m)), None)
 
 
-def data_object(obj):
+def linked_data(obj):
+    """Whatever the result modifier's Result Data field holds (any object, or None): read only."""
     mod = result_modifier(obj)
     if mod is None:
         return None
-    return blender_versions.modifier_input(mod, result_nodes.data_socket_id(mod.node_group))
+    try:
+        return blender_versions.modifier_input(mod, result_nodes.data_socket_id(mod.node_group))
+    except RuntimeError:  # a group of ours edited by hand until it lost its input
+        return None
+
+
+def _made_by_us(data) -> bool:
+    """A data object DeformRT made: a point cloud in mesh form with our offsets. (The owner mark
+    below says for whom; files from before it have this shape and no mark.)"""
+    return (data is not None and data.type == "MESH" and data.data is not None and not data.data.polygons
+            and result_nodes.OFFSET_ATTRIBUTE in data.data.attributes)
+
+
+def is_own_data(data, obj) -> bool:
+    """Whether ``data`` is the result data DeformRT made for ``obj``: the only objects the add-on
+    ever writes into or deletes. Its mark names its garment (an ID pointer, so renames keep it
+    and a copied modifier or a linked duplicate, pointing at the same data, is not its owner).
+    Data from before the mark is taken as the garment's when only this garment points at it."""
+    if not _made_by_us(data):
+        return False
+    owner = data.get(OWNER_PROPERTY)
+    if owner is not None:
+        return isinstance(owner, bpy.types.Object) and owner == obj
+    users = [o for o in bpy.data.objects if o.type == "MESH" and linked_data(o) == data]
+    return users == [obj]
+
+
+def data_object(obj):
+    """The garment's own result data, or None (no result, or the field holds something else)."""
+    data = linked_data(obj)
+    return data if is_own_data(data, obj) else None
+
+
+def foreign_data(obj):
+    """What the result modifier's field holds when it is not this garment's own result (another
+    garment's, after Copy Modifiers or a linked duplicate; any object picked there), or None."""
+    data = linked_data(obj)
+    return None if data is None or is_own_data(data, obj) else data
+
+
+def disconnect_foreign(obj) -> str | None:
+    """Empty a result modifier's field that holds what is not this garment's own result, so the
+    garment shows as fitted and not another mesh's correction by index; the object it pointed at
+    is left as it is. Returns why, or None when there was nothing to do."""
+    data = foreign_data(obj)
+    if data is None:
+        return None
+    mod = result_modifier(obj)
+    blender_versions.set_modifier_input(mod, result_nodes.data_socket_id(mod.node_group), None)
+    obj.update_tag()
+    return f"its DeformRT modifier pointed at {data.name}, which holds no result made for it"
 
 
 def set_enabled(obj, enabled: bool) -> bool:
@@ -114,13 +167,19 @@ def write(scene, obj, offsets_local, hidden_faces, stats=None, made_for=None) ->
     group = result_nodes.node_group()
     key = result_nodes.data_socket_id(group)
     mod = result_modifier(obj)
-    data = blender_versions.modifier_input(mod, key) if mod is not None else None
+    if mod is not None and mod.node_group != group:  # another file's copy of the group: ours from now on
+        old = data_object(obj)
+        mod.node_group = group
+        blender_versions.set_modifier_input(mod, key, old)
+        _remove_unused_groups()
+    data = data_object(obj) or _spare_data(obj)
     if data is None:
         mesh = bpy.data.meshes.new(f"DeformRT {obj.name}")
         data = bpy.data.objects.new(f"DeformRT {obj.name}", mesh)
         data.hide_render = True
         data.hide_viewport = True
         _hidden_collection(scene, DATA_COLLECTION).objects.link(data)
+    data[OWNER_PROPERTY] = obj
     _fill_data_mesh(data.data, offsets_local, hidden_faces)
     if stats:
         data["deformrt_stats"] = stats
@@ -158,24 +217,59 @@ def read_offsets(obj, n_vertices):
     return full
 
 
-def clear(obj) -> bool:
-    """Remove the garment's result (modifier and data). Returns whether it had one."""
-    mod = result_modifier(obj)
-    if mod is None:
-        return False
-    data = blender_versions.modifier_input(mod, result_nodes.data_socket_id(mod.node_group))
-    obj.modifiers.remove(mod)
-    if data is not None and not any(data_object(o) == data for o in bpy.data.objects if o.type == "MESH"):
-        mesh = data.data
-        bpy.data.objects.remove(data)
-        if mesh is not None and mesh.users == 0:
-            bpy.data.meshes.remove(mesh)
+def _spare_data(obj):
+    """Data DeformRT made for ``obj`` that no modifier uses any more (the field was set to
+    something else, or the modifier replaced by Copy Modifiers): used again, not duplicated."""
     coll = bpy.data.collections.get(DATA_COLLECTION)
-    if coll is not None and not coll.objects:
-        bpy.data.collections.remove(coll)
-    group = bpy.data.node_groups.get(result_nodes.GROUP_NAME)
-    if group is not None and group.users == 0:
+    used = {linked_data(o) for o in bpy.data.objects if o.type == "MESH"}
+    return next((d for d in (coll.objects if coll is not None else ())
+                 if d not in used and _made_by_us(d) and d.get(OWNER_PROPERTY) == obj), None)
+
+
+def _remove_unused_groups():
+    for group in [g for g in bpy.data.node_groups if result_nodes.is_our_group(g) and g.users == 0]:
         bpy.data.node_groups.remove(group)
+
+
+def _remove_data(data) -> None:
+    mesh = data.data
+    bpy.data.objects.remove(data)
+    if mesh is not None and mesh.users == 0:
+        bpy.data.meshes.remove(mesh)
+
+
+def remove_unused_data() -> int:
+    """Delete the data DeformRT made that no modifier uses any more (its modifier applied or
+    removed by hand); returns how many."""
+    coll = bpy.data.collections.get(DATA_COLLECTION)
+    if coll is None:
+        return 0
+    used = {linked_data(o) for o in bpy.data.objects if o.type == "MESH"}
+    unused = [d for d in coll.objects if d not in used and _made_by_us(d) and OWNER_PROPERTY in d]
+    for data in unused:
+        _remove_data(data)
+    if not coll.objects and not coll.children:
+        bpy.data.collections.remove(coll)
+    return len(unused)
+
+
+def clear(obj) -> bool:
+    """Remove the garment's result modifiers and the data DeformRT made for it; an object in the
+    field that DeformRT did not make for this garment is left alone. Returns whether it had one."""
+    mods = [m for m in obj.modifiers if result_stack.is_result(m)]
+    if not mods:
+        return False
+    own = data_object(obj)
+    for mod in mods:
+        obj.modifiers.remove(mod)
+    coll = bpy.data.collections.get(DATA_COLLECTION)
+    spare = [d for d in (coll.objects if coll is not None else ()) if _made_by_us(d) and d.get(OWNER_PROPERTY) == obj]
+    for data in {d for d in [own, *spare] if d is not None}:
+        if not any(linked_data(o) == data for o in bpy.data.objects if o.type == "MESH"):
+            _remove_data(data)
+    if coll is not None and not coll.objects and not coll.children:
+        bpy.data.collections.remove(coll)
+    _remove_unused_groups()
     return True
 
 

@@ -13,6 +13,7 @@ The result's Geometry Nodes group also refuses a mesh with other point or face c
 """
 
 import json
+from contextlib import contextmanager
 
 import bpy
 import numpy as np
@@ -29,6 +30,7 @@ _UI_ONLY = frozenset({"rna_type", "name", "show_expanded", "show_in_editmode", "
                       "open_manage_panel", "open_bake_panel", "open_named_attributes_panel", "show_group_selector",
                       "show_manage_panel", "bake_target", "bake_directory", "node_warnings"})
 _checking = False
+_paused = False
 
 
 def _digest(*parts) -> str:
@@ -91,9 +93,13 @@ def _modifiers_digest(mods) -> str:
 
 
 def _still(obj) -> bool:
-    """Whether nothing animates or constrains the object's own placement."""
-    anim = obj.animation_data
-    return not (obj.constraints or (anim is not None and (anim.action is not None or len(anim.drivers))))
+    """Whether nothing animates or constrains the object's placement, its parents' included."""
+    while obj is not None:
+        anim = obj.animation_data
+        if obj.constraints or (anim is not None and (anim.action is not None or len(anim.drivers))):
+            return False
+        obj = obj.parent
+    return True
 
 
 def _object_print(obj, mods) -> dict:
@@ -120,8 +126,6 @@ def _differences(then: dict, now: dict, garment, body) -> str | None:
         return f"{garment.name}'s shape keys changed"
     if g0["modifiers"] != g1["modifiers"]:
         return f"{garment.name}'s modifiers above DeformRT changed"
-    if b0["name"] != b1["name"]:
-        return f"the body is now {body.name}"
     if b0["mesh"] != b1["mesh"] or b0["keys"] != b1["keys"]:
         return f"{body.name}'s mesh or shape keys changed"
     if b0["modifiers"] != b1["modifiers"]:
@@ -135,19 +139,22 @@ def _differences(then: dict, now: dict, garment, body) -> str | None:
 
 
 def why_stale(garment, body) -> str | None:
-    """Why the garment's result no longer fits, or None (fits, or made before fingerprints)."""
+    """Why the garment's result does not fit what it is now, or None (it fits, or was made before
+    fingerprints). Decided afresh each time: a change undone is forgotten."""
     data = results.data_object(garment)
     if data is None:
         return None
-    if data.get(results.STALE_PROPERTY):
-        return data[results.STALE_PROPERTY]
     made_for = data.get(results.FINGERPRINT_PROPERTY)
-    if not made_for:
+    if not isinstance(made_for, str) or not made_for:
         return None
     shifted = [m.name for m in result_stack.before_result(garment) if result_stack.differs_in_render(m)]
     if shifted:
         return f"{garment.name}'s {shifted[0]} runs before DeformRT, so the render has other vertices"
-    return _differences(json.loads(made_for), json.loads(fingerprint(garment, body)), garment, body)
+    try:
+        then = json.loads(made_for)
+        return _differences(then, json.loads(fingerprint(garment, body)), garment, body)
+    except (ValueError, KeyError, TypeError):  # a damaged or crafted file: named, never raised
+        return "what it was made for cannot be read (the file's DeformRT data is damaged)"
 
 
 def mark(garment, reason: str) -> None:
@@ -160,6 +167,16 @@ def mark(garment, reason: str) -> None:
     print(f"DeformRT: {garment.name} shows as fitted until Resolve Layers: {reason} since the last resolve")
 
 
+def unmark(garment) -> None:
+    """The garment is again what its result was made for (an edit undone, a drag cancelled, back
+    at the resolved frame): show the result again."""
+    data = results.data_object(garment)
+    if data is None or results.STALE_PROPERTY not in data:
+        return
+    del data[results.STALE_PROPERTY]
+    results.set_enabled(garment, True)
+
+
 def stale_garments(scene) -> list:
     """(object, reason) for every garment (or body, for its covered skin) of the scene whose result
     was marked stale."""
@@ -167,20 +184,45 @@ def stale_garments(scene) -> list:
     for obj in scene_roles.garments(scene) + scene_roles.bodies(scene):
         data = results.data_object(obj)
         if data is not None and data.get(results.STALE_PROPERTY):
-            out.append((obj, data[results.STALE_PROPERTY]))
+            out.append((obj, str(data[results.STALE_PROPERTY])))
     return out
 
 
+def _with_results(scene) -> list:
+    return [o for o in scene.objects if o.type == "MESH" and results.result_modifier(o) is not None]
+
+
 def check_scene(scene) -> list:
-    """Look at every result of the scene now, mark the stale ones; returns (garment, reason)."""
+    """Look at every result of the scene as it is now: a field holding what is not the object's
+    own result is emptied, a result that does not fit is switched off and one that fits again is
+    switched back on. Returns (garment, reason) of those switched off."""
+    if _paused:
+        return stale_garments(scene)
     bodies = scene_roles.bodies(scene)
-    for garment in scene_roles.garments(scene) + bodies:
-        if results.data_object(garment) is None:
+    tagged = set(scene_roles.garments(scene) + bodies)
+    for obj in _with_results(scene):
+        foreign = results.disconnect_foreign(obj)
+        if foreign:
+            print(f"DeformRT: {obj.name} shows as fitted until Resolve Layers: {foreign}")
+        if obj not in tagged or results.data_object(obj) is None:
             continue
-        reason = why_stale(garment, bodies[0]) if len(bodies) == 1 else "the scene has no single body"
+        reason = why_stale(obj, bodies[0]) if len(bodies) == 1 else "the scene has no single body"
         if reason:
-            mark(garment, reason)
+            mark(obj, reason)
+        else:
+            unmark(obj)
     return stale_garments(scene)
+
+
+@contextmanager
+def paused():
+    """No checks while a resolve reads the scene with its results switched off for the moment."""
+    global _paused
+    before, _paused = _paused, True
+    try:
+        yield
+    finally:
+        _paused = before
 
 
 def _watched(scene) -> set:
@@ -193,11 +235,14 @@ def _watched(scene) -> set:
 
 
 def touched(scene, depsgraph) -> bool:
-    """Whether this update changed a body or a garment that has a result (not while marking)."""
-    if _checking or not any(results.data_object(o) is not None
-                            for o in scene_roles.garments(scene) + scene_roles.bodies(scene)):
+    """Whether this update changed a body or a garment, or anything with a result (not while marking)."""
+    if _checking or _paused:
         return False
-    return bool({u.id.original for u in depsgraph.updates} & _watched(scene))
+    holders = _with_results(scene)
+    if not holders:
+        return False
+    watched = _watched(scene) | {o for o in holders} | {o.data for o in holders}
+    return bool({u.id.original for u in depsgraph.updates} & watched)
 
 
 @persistent

@@ -16,6 +16,7 @@ KNOWN = frozenset({"offset", "probe_distance", "garment_segments", "global_norma
                    "segment_margin", "outward_shells"})
 
 
+MAX_OFFSET = 0.05  # of the body's size
 MAX_SEGMENTS = 4096
 
 
@@ -147,11 +148,17 @@ class LayeringParameters:
         d = float(params.get("offset", 1e-3 * diag))
         if not np.isfinite(d) or d < 0:
             raise ValueError(f"offset must be a finite distance >= 0, got {d}")
+        if d > MAX_OFFSET * diag:  # a gap wider than a limb: a typo or a unit mix-up, never a layer
+            raise ValueError(f"offset {d:g} is more than {MAX_OFFSET:.0%} of the body's size ({diag:g}): "
+                             "give the gap between layers in the scene's units (about 0.1% of the body)")
         gap = d + _shell_gap(params.get("outward_shells"), n_g)
         probe = params.get("probe_distance")
         given = None if probe is None else np.broadcast_to(np.asarray(probe, dtype=np.float64), (n_seg,)).copy()
         if given is not None and (np.isinf(given).any() or (given < 0).any()):
             raise ValueError("probe_distance must be finite and >= 0 (NaN for a part's default)")
+        if given is not None and np.nanmax(given, initial=0.0) > diag:
+            raise ValueError(f"probe_distance {np.nanmax(given):g} is longer than the body ({diag:g}): "
+                             "give about a body part's radius in the scene's units")
         if given is not None and np.isnan(given).all():
             given = None
         margin = float(params.get("segment_margin", 0.01 * diag))

@@ -1,0 +1,189 @@
+"""DeformRT writes only into data it made for the garment at hand and deletes nothing else: a
+Result Data field pointed at a user's object, a modifier copied to another garment, a linked
+duplicate, another file's copy of the node group, a Multires that leaves the result no place, a
+cache path that is a folder or a disk that is too full. And a result that does not fit is
+decided from what the scene is now: a change undone is forgotten."""
+
+import importlib
+import shutil
+
+import bpy
+import numpy as np
+import pytest
+from mathutils.bvhtree import BVHTree
+
+from tests.addon.render_capture import rendered_meshes
+
+
+def sub(ext, path):
+    return importlib.import_module(f"{ext.__name__}.{path}")
+
+
+def overlapping_pairs(a, b) -> int:
+    ta = BVHTree.FromPolygons(a[0].tolist(), a[1].tolist(), all_triangles=True)
+    tb = BVHTree.FromPolygons(b[0].tolist(), b[1].tolist(), all_triangles=True)
+    return len(ta.overlap(tb))
+
+
+def own_state(obj):
+    """What the user made: the object's mesh (positions, faces) or, for others, its type and place."""
+    if obj.type != "MESH":
+        return obj.type, tuple(obj.location)
+    co = np.empty(len(obj.data.vertices) * 3)
+    obj.data.vertices.foreach_get("co", co)
+    return co.round(9).tobytes(), len(obj.data.polygons), obj.data.name
+
+
+@pytest.fixture
+def tubes(extension, clean_scene):
+    return sub(extension, "sample_scenes.tubes").build(seed=0, resolution=48)
+
+
+def _field(extension, obj):
+    results, nodes = sub(extension, "addon.layers.results"), sub(extension, "addon.layers.result_nodes")
+    mod = results.result_modifier(obj)
+    return mod, nodes.data_socket_id(mod.node_group)
+
+
+def _point_field_at(extension, garment, target):
+    versions = sub(extension, "addon.io.blender_versions")
+    mod, key = _field(extension, garment)
+    versions.set_modifier_input(mod, key, target)
+    garment.update_tag()  # as the field in the UI does
+
+
+@pytest.mark.parametrize("target", ["Jacket", "Body", "Camera"])
+def test_a_user_object_in_the_result_field_is_never_written_or_deleted(extension, tubes, target):
+    body, (shirt, jacket) = tubes
+    if bpy.data.objects.get("Camera") is None:
+        cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+        bpy.context.scene.collection.objects.link(cam)
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    victim = bpy.data.objects[target]
+    before = own_state(victim)
+    _point_field_at(extension, shirt, victim)  # a mis-click, the eyedropper, or a file made so
+    bpy.context.view_layer.update()
+    assert own_state(victim) == before
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    assert own_state(bpy.data.objects[target]) == before
+    results = sub(extension, "addon.layers.results")
+    assert results.data_object(shirt) not in (None, victim)  # the shirt got data of its own again
+    shown = rendered_meshes(bpy.context.scene)
+    assert overlapping_pairs(shown["Shirt"], shown["Jacket"]) == 0
+    _point_field_at(extension, shirt, bpy.data.objects[target])
+    assert bpy.ops.deformrt.clear_results() == {"FINISHED"}
+    assert bpy.data.objects.get(target) is not None and own_state(bpy.data.objects[target]) == before
+    assert bpy.data.collections.get("DeformRT Data") is None  # ours all went
+
+
+def test_a_copied_modifier_or_linked_duplicate_never_shares_a_result(extension, tubes):
+    body, (shirt, jacket) = tubes
+    results = sub(extension, "addon.layers.results")
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    shirt_data = results.data_object(shirt)
+    # Copy Modifiers (Ctrl+L) from the shirt to the jacket
+    with bpy.context.temp_override(active_object=shirt, object=shirt, selected_objects=[shirt, jacket],
+                                   selected_editable_objects=[shirt, jacket]):
+        assert bpy.ops.object.make_links_data(type="MODIFIERS") == {"FINISHED"}
+    assert results.result_modifier(jacket) is not None  # the copy, whose field held the shirt's data
+    bpy.context.view_layer.update()
+    # the jacket no longer shows the shirt's offsets by index: its field is emptied, the shirt keeps its own
+    assert results.linked_data(jacket) is None and results.data_object(shirt) == shirt_data
+    staleness = sub(extension, "addon.layers.staleness")
+    assert staleness.stale_garments(bpy.context.scene) == []
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    assert results.data_object(jacket) not in (None, shirt_data)
+    shown = rendered_meshes(bpy.context.scene)
+    assert overlapping_pairs(shown["Shirt"], shown["Jacket"]) == 0
+    assert staleness.stale_garments(bpy.context.scene) == []
+    # a linked duplicate (Alt+D) points at the original's data: it shows as fitted, the original stays
+    twin = shirt.copy()
+    bpy.context.scene.collection.objects.link(twin)
+    twin.deformrt.role = "NONE"
+    bpy.context.view_layer.update()
+    staleness.check_scene(bpy.context.scene)
+    assert results.linked_data(twin) is None and results.data_object(shirt) == shirt_data
+    assert staleness.stale_garments(bpy.context.scene) == []
+    # clearing the twin's (empty) result removes nothing of the shirt's
+    assert results.clear(twin)
+    assert results.data_object(shirt) == shirt_data
+
+
+def test_another_files_copy_of_the_group_is_recognised_and_never_doubles_the_move(extension, tubes):
+    body, (shirt, jacket) = tubes
+    results, nodes = sub(extension, "addon.layers.results"), sub(extension, "addon.layers.result_nodes")
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    once = rendered_meshes(bpy.context.scene)["Shirt"][0]
+    # an appended garment brings its group as "DeformRT Result.001" beside the file's own
+    bpy.data.node_groups[nodes.GROUP_NAME].name = "DeformRT Result.001"
+    nodes.node_group()
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    assert [m.name for m in shirt.modifiers if m.type == "NODES"] == ["DeformRT"]
+    np.testing.assert_allclose(rendered_meshes(bpy.context.scene)["Shirt"][0], once, atol=1e-6)
+    assert "DeformRT Result.001" not in bpy.data.node_groups
+    assert results.result_modifier(shirt).node_group.name == nodes.GROUP_NAME
+    assert bpy.ops.deformrt.clear_results() == {"FINISHED"}
+    assert not any(m.type == "NODES" for g in (shirt, jacket) for m in g.modifiers)
+
+
+def test_a_multires_that_leaves_no_place_is_refused_before_anything_is_written(extension, tubes):
+    body, (shirt, jacket) = tubes
+    multires = jacket.modifiers.new("Multires", "MULTIRES")
+    with bpy.context.temp_override(object=jacket, active_object=jacket):
+        bpy.ops.object.multires_subdivide(modifier="Multires", mode="CATMULL_CLARK")
+    multires.levels, multires.render_levels = 0, 1
+    names = set(bpy.data.objects.keys())
+    with pytest.raises(RuntimeError, match="Multires.*Viewport level 0 and Render level 1"):
+        bpy.ops.deformrt.resolve_layers()
+    assert set(bpy.data.objects.keys()) == names  # nothing half-written: the shirt got nothing either
+    assert not any(m.type == "NODES" for g in (body, shirt, jacket) for m in g.modifiers)
+    multires.levels = 1  # both levels alike: the result follows the Multires
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    assert [m.type for m in jacket.modifiers] == ["MULTIRES", "NODES"]
+    shown = rendered_meshes(bpy.context.scene)
+    assert overlapping_pairs(shown["Shirt"], shown["Jacket"]) == 0
+
+
+def test_bake_frames_refuses_a_folder_or_a_full_disk_and_makes_a_missing_folder(extension, tubes, tmp_path,
+                                                                                 monkeypatch):
+    body, _ = tubes
+    with pytest.raises(RuntimeError, match="is a folder"):
+        bpy.ops.deformrt.bake_frames(frame_start=1, frame_end=2, filepath=str(tmp_path))
+    total, used, _free = shutil.disk_usage(tmp_path)
+    monkeypatch.setattr(shutil, "disk_usage", lambda _p: shutil._ntuple_diskusage(total, used, 1 << 20))
+    target = tmp_path / "new" / "layers.abc"
+    with pytest.raises(RuntimeError, match="MB free"):
+        bpy.ops.deformrt.bake_frames(frame_start=1, frame_end=2, filepath=str(target))
+    assert not target.exists() and not any(tmp_path.rglob("*.abc"))
+    monkeypatch.undo()
+    assert bpy.ops.deformrt.bake_frames(frame_start=1, frame_end=2, filepath=str(target)) == {"FINISHED"}
+    assert target.is_file()
+
+
+def test_a_change_undone_is_forgotten_and_a_renamed_body_is_no_change(extension, tubes):
+    body, (shirt, jacket) = tubes
+    staleness = sub(extension, "addon.layers.staleness")
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    resolved = rendered_meshes(bpy.context.scene)
+    body.name = "Figure"
+    bpy.context.view_layer.update()
+    assert staleness.stale_garments(bpy.context.scene) == []
+    # a drag cancelled: moved, then put back exactly
+    jacket.location.z += 0.02
+    bpy.context.view_layer.update()
+    assert [g.name for g, _ in staleness.stale_garments(bpy.context.scene)] == ["Jacket"]
+    jacket.location.z -= 0.02
+    bpy.context.view_layer.update()
+    assert staleness.stale_garments(bpy.context.scene) == []
+    np.testing.assert_allclose(rendered_meshes(bpy.context.scene)["Jacket"][0], resolved["Jacket"][0], atol=1e-6)
+    # a garment carried by an animated parent: animation is followed, not a change
+    rig = bpy.data.objects.new("Rig", None)
+    bpy.context.scene.collection.objects.link(rig)
+    shirt.parent = jacket.parent = rig  # the body stays: they move against it
+    rig.keyframe_insert("location", frame=1)
+    rig.location.x += 0.3
+    rig.keyframe_insert("location", frame=10)
+    bpy.context.scene.frame_set(10)
+    assert staleness.stale_garments(bpy.context.scene) == []
+    bpy.context.scene.frame_set(1)
+    assert staleness.stale_garments(bpy.context.scene) == []
