@@ -25,9 +25,11 @@ from .report import LayersReport
 PART_GROUP_PREFIX = "DRT_"
 GLOBAL_NORMAL_ATTRIBUTE = "deformrt_global_normal"
 GLOBAL_NORMAL_COLOR = "deformrt_global_normal_color"
-# Garment-to-body correspondence from the first resolve of an animation (rest or first
-# frame), reused on later frames instead of searching again (the thesis' posed pipeline).
+# Garment-to-body correspondence of an animation's last resolved frame, carried to the next
+# instead of searching again (the thesis' posed pipeline; core re-searches where it drifted),
+# and that frame's result (core's ``previous``: what it hid is held a few frames).
 _correspondence_cache = Cache(max_entries=1)
+_last_frame = Cache(max_entries=1)
 
 
 class LayeringInputError(ValueError):
@@ -247,6 +249,7 @@ def _topology_key(objs, arrays):
 
 def forget_correspondence():
     _correspondence_cache.clear()
+    _last_frame.clear()
 
 
 def kept_correspondence() -> dict:
@@ -309,6 +312,9 @@ def prepare_resolve(scene, reuse_correspondence=False) -> ResolveJob:
     key = _topology_key([body, *garments], arrays)
     if reuse_correspondence and key in _correspondence_cache:
         params["correspondence"] = _correspondence_cache.get(key)
+    last = _last_frame.get(key) if reuse_correspondence else None
+    if last is not None and abs(scene.frame_current - last[0]) == 1:  # the frame next to it: playback
+        params["previous"] = last[1]
     made_for = [staleness.fingerprint(g, body) for g in garments]
     return ResolveJob(body, garments, arrays, params, source, key, reuse_correspondence,
                       time.perf_counter() - t0, t0, settings.scheme, parts is not None, made_for,
@@ -349,8 +355,10 @@ def finish_resolve(scene, job: ResolveJob, result) -> ResolveSummary:
         kept = _correspondence_cache.get(job.key)
         if kept is None:
             _correspondence_cache.put(job.key, corr)  # one animation's: the last one's goes
-        else:  # garments that first met another garment on this frame
-            _correspondence_cache.put(job.key, [c if c is not None else new for c, new in zip(kept, corr, strict=True)])
+        else:  # this frame's, carried and checked; a garment this frame did not trace keeps its last
+            _correspondence_cache.put(job.key, [new if new is not None else c
+                                                for c, new in zip(kept, corr, strict=True)])
+        _last_frame.put(job.key, (scene.frame_current, result))
     garments, arrays = job.garments, job.arrays
     t1 = time.perf_counter()
     faces_hidden = []

@@ -101,6 +101,8 @@ class MeshTopology:
         self._hem_loops = None
         self._first_face = None
         self._edge_faces = None
+        self._vertex_faces = None
+        self.pieces = None  # per vertex its connected piece, filled by the first that needs it
 
     @property
     def edge_faces(self) -> tuple[np.ndarray, np.ndarray]:
@@ -120,6 +122,16 @@ class MeshTopology:
             pair = pair[alone]
             self._edge_faces = (np.column_stack([lo[pair], hi[pair]]), np.column_stack([face[pair], face[pair + 1]]))
         return self._edge_faces
+
+    @property
+    def vertex_faces(self) -> tuple[np.ndarray, np.ndarray]:
+        """(start, faces): the triangles of vertex v are faces[start[v]:start[v + 1]]."""
+        if self._vertex_faces is None:
+            corner = self.faces.ravel()
+            order = np.argsort(corner, kind="stable")
+            start = np.searchsorted(corner[order], np.arange(self.n_vertices + 1))
+            self._vertex_faces = (start, order // 3)
+        return self._vertex_faces
 
     @property
     def first_face(self) -> np.ndarray:

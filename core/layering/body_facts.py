@@ -93,10 +93,25 @@ class BodyFacts:
     @property
     def pieces(self) -> np.ndarray:
         """Per vertex, which connected piece of the body mesh it is on (0..pieces-1)."""
-        if self._pieces is None:
-            adjacency = vertex_adjacency(self.faces, len(self.vertices))
-            self._pieces = frozen(connected_components(adjacency, directed=False)[1].astype(np.int64))
+        if self._pieces is None:  # the topology's alone: kept with it for the next frame's body
+            topo = topology_of(self.faces, len(self.vertices))
+            if topo.pieces is None:
+                adjacency = vertex_adjacency(self.faces, len(self.vertices), edges=topo.edges)
+                topo.pieces = frozen(connected_components(adjacency, directed=False)[1].astype(np.int64))
+            self._pieces = topo.pieces
         return self._pieces
+
+    @property
+    def radius_found(self):
+        """The radii if a resolve has asked for them (else None: nothing is traced for this)."""
+        return self._radius
+
+    def carry_radius(self, radius) -> None:
+        """Take the last frame's radii for this body of the same topology (posed or skinned: a
+        limb's chord hardly changes), instead of tracing the body again; kept probe lengths also
+        keep the probes from changing frame to frame."""
+        if self._radius is None and radius is not None and len(radius) == len(self.vertices):
+            self._radius = frozen(radius)
 
     def part_radius(self, segment, count: int) -> np.ndarray:
         """Each part's median radius (the thesis' l_s per part), for ids 0..count-1 of one

@@ -12,6 +12,7 @@ from ..geometry.normals import vertex_normals
 # A garment with thickness (two shells, as Solidify makes) has about half of its surface facing the
 # body; one cloth surface has a few folds and collars that do. Above this share it is shelled.
 _SHELLED = 0.3
+_FADE = 0.25
 
 
 def lift_off_body(stack, k, distance) -> None:
@@ -24,7 +25,10 @@ def lift_off_body(stack, k, distance) -> None:
     clearance = stack.clearance[k]
     inside = np.isinf(clearance)
     lift = np.where(inside, distance + floor, np.maximum(floor - clearance, 0.0))
-    lift[distance > stack.probe_len[k]] = 0.0
+    # faded out over the last quarter of the reach, not cut at it: a vertex whose distance crosses
+    # the reach as the figure moves would be lifted by the whole depth one frame and not the next
+    reach = stack.probe_len[k]
+    lift *= np.clip((reach - distance) / (_FADE * np.maximum(reach, 1e-30)), 0.0, 1.0)
     facing_in = np.einsum("ij,ij->i", vertex_normals(stack.verts[k], stack.faces[k]), stack.normals[k]) < 0
     if facing_in.mean() > _SHELLED:
         lift[facing_in] = 0.0

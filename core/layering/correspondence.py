@@ -29,6 +29,13 @@ class BodyCorrespondence:
     triangle: np.ndarray  # (n,) body triangle nearest to each point
     bary: np.ndarray  # (n, 3) barycentric weights of the nearest point on it
     distance: np.ndarray  # (n,) distance to the body surface
+    # (n,) the distance when each body point was last checked to be (about) the nearest; None:
+    # ``distance`` is that (a fresh search). A point carried through the body's motion is
+    # searched again when it drifts well past this (garment_prep.carried).
+    checked: np.ndarray | None = None
+
+    def checked_distance(self) -> np.ndarray:
+        return self.distance if self.checked is None else self.checked
 
     def normals(self, body_vertex_normals: np.ndarray, body_faces: np.ndarray) -> np.ndarray:
         """Interpolated unit body normals at the corresponding points (the thesis' n')."""
@@ -276,6 +283,36 @@ def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
     # in pieces whose (points x candidates) temporaries stay in its cache
     map_chunks(run, n, chunk, block=_SEARCH_BLOCK)
     return BodyCorrespondence(best_t, best_w, best_d)
+
+
+def nearest_within(points, bound, vertices, faces, vertex_faces) -> BodyCorrespondence:
+    """The exact nearest surface point of each of a few points whose nearest lies within
+    ``bound`` (per point) of it: a body point carried from an earlier frame bounds it. Only the
+    triangles with a corner within the bound plus the longest edge can hold it (every point of
+    a triangle is within its longest edge of each corner), so no search structure is built.
+    ``vertex_faces``: MeshTopology.vertex_faces of ``faces``."""
+    points, vertices = np.asarray(points, dtype=np.float64), np.asarray(vertices, dtype=np.float64)
+    n = len(points)
+    if not n or not len(faces):
+        return BodyCorrespondence(np.zeros(n, np.int64), np.zeros((n, 3)), np.full(n, np.inf))
+    corners = [rows(vertices, faces[:, k]) for k in range(3)]
+    longest = float(np.sqrt(max(((corners[a] - corners[b]) ** 2).sum(1).max() for a, b in ((0, 1), (1, 2), (0, 2)))))
+    reach = (np.asarray(bound, dtype=np.float64) * (1 + 1e-9) + longest) ** 2
+    d2 = (points * points).sum(1)[:, None] - 2 * points @ vertices.T + (vertices * vertices).sum(1)[None]
+    pi, vi = np.nonzero(d2 <= reach[:, None] + 1e-12 * longest * longest)
+    start, tris = vertex_faces
+    counts = start[vi + 1] - start[vi]
+    pair_point = np.repeat(pi, counts)
+    offsets = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    pair_tri = tris[np.repeat(start[vi], counts) + offsets]
+    key = np.unique(pair_point * np.int64(len(faces)) + pair_tri)
+    pair_point, pair_tri = key // len(faces), key % len(faces)
+    table = triangle_table(*(rows(c, pair_tri) for c in corners))
+    dist2, bary = closest_on_table(points[pair_point], table)
+    # per point its nearest pair (pairs come sorted by point)
+    order = np.lexsort((dist2, pair_point))
+    first = order[np.searchsorted(pair_point[order], np.arange(n))]
+    return BodyCorrespondence(pair_tri[first], bary[first], np.sqrt(np.maximum(dist2[first], 0.0)))
 
 
 def local_radius(vertices, faces, normals=None, scene: RayScene | None = None) -> np.ndarray:

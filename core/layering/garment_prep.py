@@ -15,7 +15,7 @@ from ..geometry.keys import digest
 from ..geometry.topology import faces_key, topology_of
 from ..geometry.vectors import box, norms, rows
 from .body_facts import frozen
-from .correspondence import BodyCorrespondence, closest_on_table, nearest_on_surface, triangle_table
+from .correspondence import BodyCorrespondence, closest_on_table, nearest_on_surface, nearest_within, triangle_table
 from .segmentation import hull_normals, is_skirt, skirt_segments
 
 
@@ -38,7 +38,8 @@ class Prepared(NamedTuple):
 def _read_only_copy(entry: Prepared) -> Prepared:
     """A copy of ``entry`` to keep: read-only, so nothing handed out or passed in can change it."""
     c = entry.corr
-    return entry._replace(corr=BodyCorrespondence(frozen(c.triangle), frozen(c.bary), frozen(c.distance)),
+    return entry._replace(corr=BodyCorrespondence(frozen(c.triangle), frozen(c.bary), frozen(c.distance),
+                                                  None if c.checked is None else frozen(c.checked)),
                           **{f: frozen(getattr(entry, f))
                              for f in ("clearance", "normals", "vseg", "vseg2", "probe_len")})
 
@@ -64,7 +65,7 @@ class GarmentPrep:
         self.one_part, self.l_seg, self.radius, self.local_probe = one_part, l_seg, radius, local_probe
         self.junctions, self.margin = reach.junctions, margin
         self.given_normals, self.given_segments, self.given_corr = given_normals, given_segments, given_corr
-        offset = params.gap  # a stage moves a vertex by at most l_s plus the gap
+        self.gap = offset = params.gap  # a stage moves a vertex by at most l_s plus the gap
         n_g = len(garr)
         self.corr, self.normals, self.vseg, self.vseg2, self.probe_len = ([None] * n_g for _ in range(5))
         self.clearance, self.mean_edge = [None] * n_g, [0.0] * n_g
@@ -152,7 +153,8 @@ class GarmentPrep:
             self.reused.append(i)
             # the caller's own copies of what the result hands out: the kept ones must not change
             kc = entry.corr
-            self.corr[i] = BodyCorrespondence(kc.triangle.copy(), kc.bary.copy(), kc.distance.copy())
+            self.corr[i] = BodyCorrespondence(kc.triangle.copy(), kc.bary.copy(), kc.distance.copy(),
+                                              None if kc.checked is None else kc.checked.copy())
             self.normals[i], self.vseg[i] = entry.normals.copy(), entry.vseg.copy()
         self.vseg2[i], self.probe_len[i] = entry.vseg2, entry.probe_len
         self.clearance[i], self.mean_edge[i] = entry.clearance.copy(), entry.mean_edge
@@ -164,9 +166,7 @@ class GarmentPrep:
         v, f = self.garr[i]
         bv, bf, body_seg, scheme = self.body.vertices, self.body.faces, self.body_seg, self.scheme
         if self.given_corr[i] is not None:
-            c = self.given_corr[i]
-            # the same body point, where the body is now (posed, or the cloth has moved)
-            c = BodyCorrespondence(c.triangle, c.bary, norms(v - c.points(bv, bf)))
+            c = carried(self.given_corr[i], v, self.body, self.gap)
         at_body = c.normals(self.body.normals, bf) if len(v) else np.zeros((0, 3))
         if self.given_normals[i] is not None:
             n = np.asarray(self.given_normals[i], dtype=np.float64)
@@ -219,6 +219,46 @@ class GarmentPrep:
         found = self._search([i for i in rest if self.given_corr[i] is None and self.kept(i) is None])
         for i in rest:
             self._prepare(i, found.get(i))
+
+
+# A carried body point is searched again once the cloth is DRIFT times farther from it than when
+# it was last checked (and by a gap more): a leg swinging away from the cloth on the inner thigh
+# of the other; or once the cloth lies off the point's normal by more than ASIDE. The nearest
+# found then replaces it only when nearer by SWITCH, so a point between two body parts at about
+# the same distance does not switch from frame to frame.
+DRIFT = 1.25
+SWITCH = 0.8
+FEW = 256  # drifted points asked without the body's search structure
+ASIDE = 0.7  # cos 45 degrees: off its body point's normal by more is beside it
+
+
+def carried(given, v, body, gap) -> BodyCorrespondence:
+    """The body points ``given`` (found on an earlier frame of the same garment) where the body is
+    now: the binding follows the body's deformation (posed, skinned, or cloth sliding over it).
+    Where a point has drifted away (DRIFT), the body is searched again for those vertices alone
+    and the nearer point taken (SWITCH); elsewhere the binding stays, so the normals and parts
+    read through it change only as smoothly as the body moves."""
+    bv, bf = body.vertices, body.faces
+    off = v - given.points(bv, bf)
+    d = norms(off)
+    checked = np.array(given.checked_distance(), dtype=np.float64, copy=True)
+    # drifted: farther than when last checked, or beside the point rather than over it (the cloth
+    # slid along the body: its nearest point is elsewhere, and "behind the point's normal" would
+    # read as inside the body)
+    over = np.einsum("ij,ij->i", off, given.normals(body.normals, bf))
+    drift = np.flatnonzero((d > np.maximum(DRIFT * checked, checked + gap)) | ((d > gap) & (over < ASIDE * d)))
+    tri, bary = given.triangle, given.bary
+    if len(drift):
+        if len(drift) <= FEW:  # the carried point bounds the nearest: no body search built this frame
+            found = nearest_within(v[drift], d[drift], bv, bf, topology_of(bf, len(bv)).vertex_faces)
+        else:
+            found = nearest_on_surface(v[drift], bv, bf, search=body.search)
+        take = found.distance < SWITCH * d[drift]
+        tri, bary = tri.copy(), bary.copy()
+        moved = drift[take]
+        tri[moved], bary[moved], d[moved] = found.triangle[take], found.bary[take], found.distance[take]
+        checked[drift] = d[drift]  # the kept ones are about the nearest now too
+    return BodyCorrespondence(tri, bary, d, checked)
 
 
 def near_another(boxes, grow):

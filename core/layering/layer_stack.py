@@ -18,6 +18,7 @@ class LayerStack:
         n_g = len(garr)
         self.body, self.body_vertices, self.params, self.n_garments = body, body_vertices, params, n_g
         self.rest = [v for v, _ in garr]  # as they came (lifted off the body: body_lift), for the body guard
+        self.fitted = list(self.rest)  # as they came, always
         self.verts = [v.copy() for v, _ in garr]
         self.faces = [f for _, f in garr]
         self.normals, self.probe_len, self.vseg2 = prep.normals, prep.probe_len, prep.vseg2
@@ -33,7 +34,7 @@ class LayerStack:
             self.scenes[i] = SegmentScenes(self.verts[i], self.layouts[i], prep.content(i))
         self.rays = {"boundary": 0, "push": 0, "hidden": 0}
         self._creases = {}
-        self.moved_by = {"lift": 0, "boundary": 0, "push": 0}
+        self.moved_by = {"lift": 0, "boundary": 0, "push": 0, "relaxed": 0}
         # A lower bound on each vertex's distance from the body: the distance found at rest minus
         # every inward move since (distance is 1-Lipschitz). Unlike a ray along -n', it also sees
         # body parts beside the ray (a joint bulging next to a limb). Inside the body: no bound.

@@ -26,9 +26,15 @@ from .parameters import LayeringParameters, check_known, inside_out, read_meshes
 from .probes import probe_reach
 from .push_behind import push_behind
 from .result import LayeringResult
+from .stretch_relax import relax_stretch
+
+# A face hidden because it crossed a higher layer stays hidden this many frames after it last
+# crossed (with ``previous``): a face that crosses on and off as the figure moves would otherwise
+# blink for single frames, which the eye catches at once. It is the layer behind that stays hidden.
+HIDE_HOLD = 3
 
 
-def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResult:
+def resolve_layers(body, garments, body_segments=None, previous=None, **params) -> LayeringResult:
     """Move lower garment layers behind higher ones and drop triangles that still show through.
 
     body, garments: trimesh.Trimesh in world space, garments ordered inner to outer. A
@@ -58,7 +64,13 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         garment_segments: list of per-vertex segment arrays (or None) overriding the nearest-body rule.
         global_normals: list of per-vertex (n,3) arrays (or None) overriding the body's normals.
         correspondence: list of BodyCorrespondence (or None) from an earlier call on the same
-            garment topology (e.g. the rest pose), reused instead of searching again.
+            garment topology (e.g. the rest pose), carried through the body's deformation
+            instead of searching again (searched again only where a point drifted off:
+            garment_prep.carried).
+    previous: the LayeringResult of the last frame of the same body and garments (playback,
+        a frame bake). Its body points, carried and checked frame by frame, are used before
+        ``correspondence``'s, and a face it hid stays hidden HIDE_HOLD frames after it last
+        crossed (no face blinks for one frame).
         segment_margin: garment points within sqrt(2) times their body distance plus this
             much of a place where their part meets another (a junction on the body) also trace
             against that part; default 1% of the body's diagonal (about 2 cm on a person), 0 for strict parts.
@@ -78,10 +90,17 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     timings = {}
     check_known(params)
     bv, bf, garr = read_meshes(body, garments)
+    previous = previous if _same_garments(previous, garr) else None
+    if previous is not None:
+        given = list(params.get("correspondence") or [None] * len(garr))
+        params = {**params, "correspondence": [c if c is not None else g
+                                                for c, g in zip(previous.found()[1], given, strict=True)]}
     flipped = inside_out(bv, bf)
     if flipped:
         bf = bf[:, ::-1]  # resolved as the body it is: the result is the same either way
     facts = body_facts(bv, bf)
+    if previous is not None:
+        facts.carry_radius(getattr(previous, "body_radius", None))
     p = LayeringParameters.parse(facts, bv, bf, garr, body_segments, params)
 
     t0 = time.perf_counter()
@@ -93,10 +112,13 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
     t0 = time.perf_counter()
     for k in stack.active:
         lift_off_body(stack, k, prep.corr[k].distance)
+        _relax(stack, k)
+        stack.rest[k] = stack.verts[k]  # the body guard takes the stages' moves back to here
     timings["lift_s"] = time.perf_counter() - t0
     _fit_layers(stack, timings)
     t0 = time.perf_counter()
     removed = _hidden_faces(stack) if p.remove_hidden else [np.zeros(len(f), dtype=bool) for f in stack.faces]
+    removed, clear = _held(removed, previous if p.remove_hidden else None)
     timings["hidden_faces_s"] = time.perf_counter() - t0
 
     out, moved = [], []
@@ -106,9 +128,34 @@ def resolve_layers(body, garments, body_segments=None, **params) -> LayeringResu
         kept_faces = stack.faces[i][~removed[i]] if removed[i].any() else stack.faces[i].copy()
         out.append(trimesh.Trimesh(stack.verts[i], kept_faces, process=False, validate=False))
     timings["total_s"] = time.perf_counter() - t_start
-    return LayeringResult(out, moved, removed, prep.traced, prep.normals, prep.corr, prep.vseg, prep.skirts,
-                          {**_stats(stack, prep, reach, removed, timings), "body_inside_out": flipped},
-                          prep.complete if len(prep.active) < len(garr) else None)
+    result = LayeringResult(out, moved, removed, prep.traced, prep.normals, prep.corr, prep.vseg, prep.skirts,
+                            {**_stats(stack, prep, reach, removed, timings), "body_inside_out": flipped},
+                            prep.complete if len(prep.active) < len(garr) else None)
+    result.frames_clear = clear
+    result.body_radius = facts.radius_found
+    return result
+
+
+def _same_garments(previous, garr) -> bool:
+    """Whether ``previous`` is a result for garments of these vertex and face counts."""
+    if previous is None:
+        return False
+    moved, removed = previous.moved, previous.removed_faces
+    return len(moved) == len(garr) and all(len(m) == len(v) and len(r) == len(f)
+                                           for m, r, (v, f) in zip(moved, removed, garr, strict=True))
+
+
+def _held(crossing, previous):
+    """Hidden faces with the hold (HIDE_HOLD) over the last frame's, and per face how many frames
+    it has not crossed (capped)."""
+    if previous is None or getattr(previous, "frames_clear", None) is None:
+        return crossing, [np.where(c, 0, HIDE_HOLD + 1).astype(np.int8) for c in crossing]
+    removed, clear = [], []
+    for now, was, before in zip(crossing, previous.removed_faces, previous.frames_clear, strict=True):
+        since = np.where(now, 0, np.minimum(before.astype(np.int16) + 1, HIDE_HOLD + 1)).astype(np.int8)
+        removed.append(now | (was & (since <= HIDE_HOLD)))
+        clear.append(since)
+    return removed, clear
 
 
 def _fit_layers(stack, timings) -> None:
@@ -124,12 +171,22 @@ def _fit_layers(stack, timings) -> None:
         t1 = time.perf_counter()
         if p.push_behind:
             push_behind(stack, k)
+        _relax(stack, k)
         t2 = time.perf_counter()
         if p.body_guard:
             keep_out_of_body(stack, k)
         timings["boundary_pass_s"] += t1 - t0
         timings["push_behind_s"] += t2 - t1
         timings["body_guard_s"] += time.perf_counter() - t2
+
+
+def _relax(stack, k) -> None:
+    """Edges of layer k the moves so far pulled apart beyond MAX_STRETCH drawn back (stretch_relax),
+    before the layers under it are fitted to where it ends up."""
+    out, drawn = relax_stretch(stack.fitted[k], stack.verts[k], stack.edges[k])
+    if drawn:
+        stack.moved(k, out)
+        stack.moved_by["relaxed"] += drawn
 
 
 def _hidden_faces(stack) -> list:
@@ -167,6 +224,7 @@ def _stats(stack, prep, reach, removed, timings) -> dict:
         "vertices_moved_push": stack.moved_by["push"],
         "vertices_held_by_body": stack.floor_clamped,
         "vertices_kept_out_of_body": stack.backed_off,
+        "vertices_relaxed": stack.moved_by["relaxed"],
         "faces_removed": int(sum(r.sum() for r in removed)),
         "vertices_far_from_body": prep.far,
         "vertices_on_part_borders": int(sum((stack.vseg2[i][:, 1] >= 0).sum() for i in active)),

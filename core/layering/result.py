@@ -28,6 +28,8 @@ class LayeringResult:
         self._normals, self._corr, self._segments, self._skirts = normals, correspondence, segments, skirts
         self.stats = stats
         self._complete = complete  # fills the untraced garments' entries in place
+        self.frames_clear = None  # per garment and face, frames since it last crossed (resolve's hold)
+        self.body_radius = None  # the body's radii the probes took, for the next frame
 
     def _completed(self):
         if self._complete is not None:

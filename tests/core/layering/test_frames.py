@@ -1,0 +1,160 @@
+"""Frame to frame (Resolve on Frame Change, frame bakes): body points carried through the body's
+motion and searched again where the cloth has left them, and hidden faces that never blink."""
+
+import numpy as np
+import pytest
+import trimesh
+
+from core.layering import resolve_layers
+from core.layering.body_facts import body_facts
+from core.layering.correspondence import BodyCorrespondence
+from core.layering.garment_prep import DRIFT, SWITCH, carried
+from core.layering.resolve import HIDE_HOLD
+from sample_scenes.shapes import tube
+from tests.core.layered_cases import body_tube, lower_body, mesh
+
+
+def _trouser_legs(x, seed=0):
+    """Two noisy layers round a 7 cm leg at x (they cross), 30 cm long."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for r in (0.078, 0.081):
+        v, f = tube(r, 0.1, 0.4, n_around=40, n_along=16, noise=0.006, rng=rng, min_radius=0.074)
+        out.append(mesh(v + [x, 0, 0], f))
+    return out
+
+
+def test_cloth_the_body_moved_away_from_is_bound_to_the_body_it_is_on_now():
+    """The inner-thigh case: garment points bound on frame 1 to one leg, the leg swung away and the
+    cloth now on the other. Carried blindly, the old body points are 18 cm off and the cloth is
+    pushed along the wrong leg's normals; searched again where they drifted, the frame resolves
+    exactly as a fresh search resolves it."""
+    body, parts = lower_body()
+    first = resolve_layers(body, _trouser_legs(0.09), body_segments=parts)
+    kept = first.found()[1]
+    moved_on = _trouser_legs(-0.09)
+    fresh = resolve_layers(body, moved_on, body_segments=parts)
+    again = resolve_layers(body, moved_on, body_segments=parts, correspondence=kept)
+    for a, b in zip(again.moved, fresh.moved, strict=True):
+        np.testing.assert_allclose(a, b, atol=1e-9)
+    assert max(np.linalg.norm(m, axis=1).max() for m in again.moved) < 0.02
+
+
+def test_a_carried_point_is_searched_again_only_where_it_drifted_and_then_is_the_nearest():
+    body, _ = lower_body()
+    facts = body_facts(np.asarray(body.vertices, float), np.asarray(body.faces))
+    rng = np.random.default_rng(3)
+    # points 5-15 mm off the left leg (x = +9 cm), bound there
+    ang, z = rng.uniform(0, 2 * np.pi, 300), rng.uniform(0.1, 0.4, 300)
+    r = 0.07 + rng.uniform(0.005, 0.015, 300)
+    p = np.column_stack([0.09 + r * np.cos(ang), r * np.sin(ang), z])
+    closest, dist, tri = trimesh.proximity.closest_point(body, p)  # the independent reference
+    bary = trimesh.triangles.points_to_barycentric(body.triangles[tri], closest)
+    bound = BodyCorrespondence(tri.astype(np.int64), bary, dist)
+    # the first half of the points leaves the left leg for the right one; the rest stays
+    q = p.copy()
+    q[:150, 0] -= 0.18
+    c = carried(bound, q, facts, gap=0.002)
+    _, near, _ = trimesh.proximity.closest_point(body, q)
+    np.testing.assert_allclose(c.distance[:150], near[:150], atol=1e-9)
+    np.testing.assert_array_equal(c.triangle[150:], tri[150:])  # not searched: the same body points
+    np.testing.assert_allclose(c.distance[150:], dist[150:], atol=1e-12)
+    assert (c.checked[:150] == c.distance[:150]).all()
+    # a point that drifted but whose nearest is hardly nearer keeps its binding (no switching back
+    # and forth between two parts at about the same distance)
+    lifted = p[150:151] + [0.0, 0.0, 0.0]
+    lifted[0, :2] += (lifted[0, :2] - [0.09, 0]) / np.linalg.norm(lifted[0, :2] - [0.09, 0]) * 0.02
+    c2 = carried(BodyCorrespondence(tri[150:151].astype(np.int64), bary[150:151], dist[150:151]), lifted, facts,
+                 gap=0.001)
+    assert c2.distance[0] > DRIFT * dist[150]
+    assert c2.triangle[0] == tri[150] or c2.distance[0] < SWITCH * np.linalg.norm(lifted[0] - closest[150])
+
+
+def _dented(dent: bool):
+    """A lower sleeve over a tube body and a higher one that, when ``dent``, dips to 1.5 mm off the
+    body over a patch: there the lower layer has no room behind it and shows through, so its
+    faces are hidden; without the dent nothing is hidden."""
+    v, f = tube(0.17, 0.05, 0.55, n_around=64, n_along=32)
+    if dent:
+        ang = np.arctan2(v[:, 1], v[:, 0])
+        patch = (np.abs(ang) < 0.35) & (np.abs(v[:, 2] - 0.3) < 0.06)
+        v[patch, :2] *= 0.1515 / 0.17
+    low = tube(0.16, 0.08, 0.52, n_around=48, n_along=24)
+    return [mesh(*low), mesh(v, f)]
+
+
+def _pops(masks):
+    m = np.array(masks)
+    return int(((m[1:-1] != m[:-2]) & (m[1:-1] != m[2:])).sum())
+
+
+def test_a_face_that_crosses_every_other_frame_never_blinks():
+    body = body_tube()
+    frames = [_dented(k % 2 == 0) for k in range(7)]
+    first = resolve_layers(body, frames[0])
+    kept = first.found()[1]
+    alone = [resolve_layers(body, g, correspondence=kept).removed_faces[0] for g in frames]
+    assert any(m.any() for m in alone) and _pops(alone) > 0  # each frame by itself blinks
+    chain, last = [], None
+    for g in frames:
+        last = resolve_layers(body, g, correspondence=kept, previous=last)
+        chain.append(last.removed_faces[0])
+    assert _pops(chain) == 0
+    for t, m in enumerate(chain):  # hidden: what crossed in this frame or the HIDE_HOLD before it
+        np.testing.assert_array_equal(m, np.any(alone[max(0, t - HIDE_HOLD):t + 1], axis=0))
+
+
+@pytest.mark.parametrize("bad", ["count", "faces"])
+def test_a_previous_result_for_other_meshes_is_not_used(bad):
+    body = body_tube()
+    frame = _dented(True)
+    other = [mesh(*tube(0.16, 0.08, 0.52, n_around=40 if bad == "count" else 48, n_along=24)), frame[1]]
+    if bad == "faces":
+        other[0] = mesh(other[0].vertices, other[0].faces[:-2])
+    prev = resolve_layers(body, other)
+    res = resolve_layers(body, frame, previous=prev)
+    np.testing.assert_array_equal(res.removed_faces[0], resolve_layers(body, frame).removed_faces[0])
+
+
+@pytest.mark.parametrize("kind", ["legs", "box"])
+def test_the_nearest_within_a_bound_is_the_nearest_point_of_the_surface(kind):
+    """Against brute force over every triangle, on fine legs and on a box of twelve large triangles (whose
+    nearest triangle may have no corner near the point); the bound is the distance to any point of
+    the surface, as a carried body point gives it."""
+    from core.geometry.topology import topology_of
+    from core.layering.correspondence import nearest_within
+
+    body = lower_body()[0] if kind == "legs" else trimesh.creation.box(extents=(1.0, 0.6, 0.3))
+    rng = np.random.default_rng(7)
+    p = body.bounds[0] - 0.05 + rng.random((200, 3)) * (np.ptp(body.bounds, axis=0) + 0.1)
+    somewhere = body.sample(200, seed=3) if hasattr(body, "sample") else None
+    bound = np.linalg.norm(p - somewhere, axis=1)
+    faces = np.asarray(body.faces, dtype=np.int64)
+    found = nearest_within(p, bound, body.vertices, faces, topology_of(faces, len(body.vertices)).vertex_faces)
+    # brute force: every triangle's closest point (trimesh's per-triangle solution) for every point
+    tri = body.triangles
+    dist = np.array([np.linalg.norm(trimesh.triangles.closest_point(tri, np.repeat(q[None], len(tri), 0)) - q,
+                                    axis=1).min() for q in p])
+    np.testing.assert_allclose(found.distance, dist, atol=1e-9)
+    on = np.einsum("ij,ijk->ik", found.bary, body.vertices[faces[found.triangle]])
+    np.testing.assert_allclose(np.linalg.norm(p - on, axis=1), dist, atol=1e-9)
+
+
+def test_cloth_that_slid_beside_its_body_point_is_bound_again_before_it_reads_as_inside():
+    """Cloth 10 mm over a flat body slides 8 mm along it and sinks to 6 mm: as far from its old body
+    point as before, but beside it; ever further along, "behind the point's normal" would read as
+    inside the body and lift it by the whole distance. It is bound to the point under it."""
+    from tests.core.layered_cases import slab_body
+
+    body = slab_body(size=1.0, thickness=0.2, subdivisions=4)
+    facts = body_facts(np.asarray(body.vertices, float), np.asarray(body.faces))
+    p = np.array([[0.01, 0.02, 0.010], [-0.1, 0.05, 0.010]])
+    closest, dist, tri = trimesh.proximity.closest_point(body, p)
+    bary = trimesh.triangles.points_to_barycentric(body.triangles[tri], closest)
+    bound = BodyCorrespondence(tri.astype(np.int64), bary, dist)
+    q = p + [[0.008, 0.0, -0.004], [0.0, 0.0, 0.0]]  # the first slid and sank; the second stayed
+    c = carried(bound, q, facts, gap=0.001)
+    np.testing.assert_allclose(c.distance, [0.006, 0.010], atol=1e-9)
+    under = np.einsum("ij,ijk->ik", c.bary, body.vertices[body.faces[c.triangle]])
+    np.testing.assert_allclose(under[0], [0.018, 0.02, 0.0], atol=1e-9)
+    assert c.triangle[1] == tri[1]
