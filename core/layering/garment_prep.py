@@ -229,7 +229,7 @@ class GarmentPrep:
 DRIFT = 1.25
 SWITCH = 0.8
 FEW = 256  # drifted points asked without the body's search structure
-ASIDE = 0.7  # cos 45 degrees: off its body point's normal by more is beside it
+ASIDE = 0.7  # cos 45 degrees: off its body point's normal line by more is beside it
 
 
 def carried(given, v, body, gap) -> BodyCorrespondence:
@@ -242,11 +242,11 @@ def carried(given, v, body, gap) -> BodyCorrespondence:
     off = v - given.points(bv, bf)
     d = norms(off)
     checked = np.array(given.checked_distance(), dtype=np.float64, copy=True)
-    # drifted: farther than when last checked, or beside the point rather than over it (the cloth
-    # slid along the body: its nearest point is elsewhere, and "behind the point's normal" would
+    # drifted: farther than when last checked, or beside the point rather than over or under it (the
+    # cloth slid along the body: its nearest point is elsewhere, and "behind the point's normal" would
     # read as inside the body)
     over = np.einsum("ij,ij->i", off, given.normals(body.normals, bf))
-    drift = np.flatnonzero((d > np.maximum(DRIFT * checked, checked + gap)) | ((d > gap) & (over < ASIDE * d)))
+    drift = np.flatnonzero((d > np.maximum(DRIFT * checked, checked + gap)) | ((d > gap) & (np.abs(over) < ASIDE * d)))
     tri, bary = given.triangle, given.bary
     if len(drift):
         if len(drift) <= FEW:  # the carried point bounds the nearest: no body search built this frame

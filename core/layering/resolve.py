@@ -110,8 +110,10 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
 
     stack = LayerStack(facts, bv, garr, prep, p)
     t0 = time.perf_counter()
+    lifts = [None] * len(garr)
+    held = getattr(previous, "lifts", None) or [None] * len(garr)
     for k in stack.active:
-        lift_off_body(stack, k, prep.corr[k].distance)
+        lifts[k] = lift_off_body(stack, k, prep.corr[k].distance, held[k])
         _relax(stack, k)
         stack.rest[k] = stack.verts[k]  # the body guard takes the stages' moves back to here
     timings["lift_s"] = time.perf_counter() - t0
@@ -132,6 +134,7 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
                             {**_stats(stack, prep, reach, removed, timings), "body_inside_out": flipped},
                             prep.complete if len(prep.active) < len(garr) else None)
     result.frames_clear = clear
+    result.lifts = lifts
     result.body_radius = facts.radius_found
     return result
 
