@@ -158,3 +158,22 @@ def test_cloth_that_slid_beside_its_body_point_is_bound_again_before_it_reads_as
     under = np.einsum("ij,ijk->ik", c.bary, body.vertices[body.faces[c.triangle]])
     np.testing.assert_allclose(under[0], [0.018, 0.02, 0.0], atol=1e-9)
     assert c.triangle[1] == tri[1]
+
+
+def test_a_lift_off_the_body_eases_out_at_its_rate_in_playback():
+    """A sleeve sunk 2 cm into a tube body is lifted by its depth and the floor; on the next frame
+    it lies clear of the body: resolved alone it needs no lift, after the sunk frame the lift falls
+    by RATE gaps."""
+    from core.layering.body_lift import RATE
+
+    body = body_tube(n=48)
+    outer = mesh(*tube(0.175, 0.1, 0.5, n_around=48, n_along=24))
+    sunk = [mesh(*tube(0.13, 0.12, 0.48, n_around=48, n_along=24)), outer]
+    clear = [mesh(*tube(0.16, 0.12, 0.48, n_around=48, n_along=24)), outer]
+    first = resolve_layers(body, sunk)
+    depth = 0.15 * np.cos(np.pi / 48) - 0.13  # to the 48-gon's flat sides, at most
+    assert first.lifts[0].min() > depth
+    alone = resolve_layers(body, clear)
+    assert not alone.lifts[0].any()
+    after = resolve_layers(body, clear, correspondence=first.found()[1], previous=first)
+    np.testing.assert_allclose(after.lifts[0], first.lifts[0] - RATE * after.stats["gap"], rtol=1e-9)
