@@ -39,6 +39,7 @@ class BodyFacts:
         self.vertices, self.faces = frozen(vertices), frozen(faces)
         self._normals = self._radius = self._search = self._pieces = self._scene = self._edges = None
         self._normal_agreement = None
+        self._longest = None
         self._junctions = {}
         self.prepared_kept = Cache(max_entries=KEEP_PREPARED, max_bytes=PREPARED_BYTES)
 
@@ -71,6 +72,18 @@ class BodyFacts:
             self._edges = (e, [np.minimum(a[:, i], b[:, i]) for i in range(3)],
                            [np.maximum(a[:, i], b[:, i]) for i in range(3)])
         return self._edges
+
+    @property
+    def vertex_faces(self):
+        """MeshTopology.vertex_faces of the body (kept with its topology)."""
+        return topology_of(self.faces, len(self.vertices)).vertex_faces
+
+    @property
+    def longest_edge(self) -> float:
+        if self._longest is None:
+            e = topology_of(self.faces, len(self.vertices)).edges
+            self._longest = float(norms(self.vertices[e[:, 0]] - self.vertices[e[:, 1]]).max(initial=0.0))
+        return self._longest
 
     @property
     def search(self):

@@ -285,19 +285,23 @@ def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
     return BodyCorrespondence(best_t, best_w, best_d)
 
 
-def nearest_within(points, bound, vertices, faces, vertex_faces) -> BodyCorrespondence:
+def nearest_within(points, bound, vertices, faces, vertex_faces, longest=None) -> BodyCorrespondence:
     """The exact nearest surface point of each of a few points whose nearest lies within
     ``bound`` (per point) of it: a body point carried from an earlier frame bounds it. Only the
     triangles with a corner within the bound plus the longest edge can hold it (every point of
     a triangle is within its longest edge of each corner), so no search structure is built.
-    ``vertex_faces``: MeshTopology.vertex_faces of ``faces``."""
+    ``vertex_faces``: MeshTopology.vertex_faces of ``faces``; ``longest``: the longest edge, when
+    the caller knows it."""
     points, vertices = np.asarray(points, dtype=np.float64), np.asarray(vertices, dtype=np.float64)
     n = len(points)
     if not n or not len(faces):
         return BodyCorrespondence(np.zeros(n, np.int64), np.zeros((n, 3)), np.full(n, np.inf))
-    corners = [rows(vertices, faces[:, k]) for k in range(3)]
-    longest = float(np.sqrt(max(((corners[a] - corners[b]) ** 2).sum(1).max() for a, b in ((0, 1), (1, 2), (0, 2)))))
-    reach = (np.asarray(bound, dtype=np.float64) * (1 + 1e-9) + longest) ** 2
+    if longest is None:
+        corners = [rows(vertices, faces[:, k]) for k in range(3)]
+        longest = float(np.sqrt(max(((corners[a] - corners[b]) ** 2).sum(1).max()
+                                    for a, b in ((0, 1), (1, 2), (0, 2)))))
+    bound = np.asarray(bound, dtype=np.float64) * (1 + 1e-9)
+    reach = (bound + longest) ** 2
     d2 = (points * points).sum(1)[:, None] - 2 * points @ vertices.T + (vertices * vertices).sum(1)[None]
     pi, vi = np.nonzero(d2 <= reach[:, None] + 1e-12 * longest * longest)
     start, tris = vertex_faces
@@ -307,7 +311,14 @@ def nearest_within(points, bound, vertices, faces, vertex_faces) -> BodyCorrespo
     pair_tri = tris[np.repeat(start[vi], counts) + offsets]
     key = np.unique(pair_point * np.int64(len(faces)) + pair_tri)
     pair_point, pair_tri = key // len(faces), key % len(faces)
-    table = triangle_table(*(rows(c, pair_tri) for c in corners))
+    corner = [rows(vertices, rows(faces[:, k], pair_tri)) for k in range(3)]
+    # a triangle whose box is farther than the bound cannot hold the nearest point
+    p = points[pair_point]
+    gap = np.maximum(np.minimum(np.minimum(corner[0], corner[1]), corner[2]) - p, 0) + \
+        np.maximum(p - np.maximum(np.maximum(corner[0], corner[1]), corner[2]), 0)
+    near = np.einsum("ij,ij->i", gap, gap) <= bound[pair_point] ** 2 * (1 + 1e-9) + 1e-24
+    pair_point, pair_tri, corner = pair_point[near], pair_tri[near], [c[near] for c in corner]
+    table = triangle_table(*corner)
     dist2, bary = closest_on_table(points[pair_point], table)
     # per point its nearest pair (pairs come sorted by point)
     order = np.lexsort((dist2, pair_point))

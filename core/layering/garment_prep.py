@@ -250,7 +250,7 @@ def carried(given, v, body, gap) -> BodyCorrespondence:
     tri, bary = given.triangle, given.bary
     if len(drift):
         if len(drift) <= FEW:  # the carried point bounds the nearest: no body search built this frame
-            found = nearest_within(v[drift], d[drift], bv, bf, topology_of(bf, len(bv)).vertex_faces)
+            found = nearest_within(v[drift], d[drift], bv, bf, body.vertex_faces, body.longest_edge)
         else:
             found = nearest_on_surface(v[drift], bv, bf, search=body.search)
         take = found.distance < SWITCH * d[drift]

@@ -22,13 +22,22 @@ def relax_stretch(fitted, moved_to, edges):
         return moved_to, 0
     a, b = edges[:, 0], edges[:, 1]
     rest = np.linalg.norm(fitted[a] - fitted[b], axis=1)
+    over = np.linalg.norm(moved_to[a] - moved_to[b], axis=1) > MAX_STRETCH * rest
+    if not over.any():
+        return moved_to, 0
+    # only edges at a torn one's ends or at a drawn vertex can tear as ends are drawn: each round
+    # looks at those
+    near = np.zeros(len(fitted), dtype=bool)
+    near[edges[over].ravel()] = True
     move = moved_to - fitted
     drawn = np.zeros(len(fitted), dtype=bool)
     for _ in range(_ROUNDS):
-        now = np.linalg.norm(fitted[a] + move[a] - fitted[b] - move[b], axis=1)
-        over = np.flatnonzero(now > MAX_STRETCH * rest)
+        ask = np.flatnonzero(near[a] | near[b])
+        now = np.linalg.norm(fitted[a[ask]] + move[a[ask]] - fitted[b[ask]] - move[b[ask]], axis=1)
+        over = ask[now > MAX_STRETCH * rest[ask]]
         if not len(over):
             break
+        near[a[over]] = near[b[over]] = True
         ea, eb = a[over], b[over]
         half = 0.5 * (move[eb] - move[ea])
         pull = np.zeros_like(move)
