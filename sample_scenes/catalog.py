@@ -11,6 +11,9 @@ SCENES = {
     "makehuman": (lambda seed: makehuman.build(seed=seed),
                   "A real outfit: MakeHuman's CC0 sports suit under its casual suit on its default female body, "
                   "each fitted alone; Subdivision 1/2 on every mesh."),
+    "makehuman_animated": (lambda seed: makehuman.build_animated(seed=seed)[:2],
+                           "The MakeHuman outfit on its default skeleton (Armature modifiers, MPFB2's weights): "
+                           "96 frames from rest to MakeHuman's run and gym poses and back."),
     "posed": (lambda seed: dressed.posed(seed=seed),
               "Thesis run (c): wooden mannequin in T-shirt, pants and jacket; frame 1 rest, frame 2 posed."),
     "sheets": (lambda seed: sheets.build(layers=4, per_sheet=2048, seed=seed),

@@ -6,6 +6,8 @@ mesh, as MakeHuman's proxies are meant to be seen."""
 
 from pathlib import Path
 
+import bpy
+import mathutils
 import numpy as np
 
 from ..addon.io import mesh_io
@@ -47,3 +49,66 @@ def build(seed: int = 0, subdivision: bool = True):
             mod.levels, mod.render_levels = 1, 2
     studio.camera_and_lights(scene, target=(0.0, 0.0, 0.85), distance=3.6, elevation_deg=6.0, azimuth_deg=-25.0)
     return body, garments
+
+
+# the animated figure: rest to MakeHuman's run pose and back, then to its gym pose and back
+RAMPS = (("ramp_run01", False), ("ramp_run01", True), ("ramp_gym01", False), ("ramp_gym01", True))
+KEY_EVERY = 4  # frames between keys (Blender interpolates between them)
+
+
+def build_animated(seed: int = 0, subdivision: bool = True):
+    """The outfit on MakeHuman's default skeleton as an MPFB2 user has it: an Armature, each mesh
+    weighted to its bones (the garments' weights from the body's through their .mhclo binding) with
+    an Armature modifier first in its stack, and an action over 96 frames built from MakeHuman's
+    poses. Returns (body, garments, armature)."""
+    from .posed import Rig
+
+    body, garments = build(seed=seed, subdivision=subdivision)
+    scene = bpy.context.scene
+    rig = Rig()
+    arm = _armature(scene, rig)
+    for obj, mesh in zip([body, *garments], [rig.body, *rig.garments], strict=True):
+        dense = mesh.weights.toarray()
+        used = np.flatnonzero(dense.any(axis=0))
+        mesh_io.write_vertex_groups(obj, [rig.bones[b] for b in used], dense[:, used])
+        mod = obj.modifiers.new("Armature", "ARMATURE")
+        mod.object = arm
+        obj.modifiers.move(len(obj.modifiers) - 1, 0)  # first, as MPFB2 puts it
+        obj.parent = arm
+        obj.matrix_parent_inverse = arm.matrix_world.inverted()  # the meshes carry the floor shift
+    frames = np.concatenate([rig.animations[name][::-1] if back else rig.animations[name] for name, back in RAMPS])
+    _keyframes(arm, rig, frames)
+    scene.frame_start, scene.frame_end = 1, len(frames)
+    scene.frame_set(1)
+    return body, garments, arm
+
+
+def _armature(scene, rig):
+    """One bone per skinning matrix, each at rest where its vertices are (no parents: the poses
+    give every bone's own matrix), the armature carrying the figure's floor shift."""
+    data = bpy.data.armatures.new("MakeHuman")
+    arm = bpy.data.objects.new("MakeHuman", data)
+    scene.collection.objects.link(arm)
+    arm.location = FLOOR_SHIFT
+    bpy.context.view_layer.objects.active = arm
+    bpy.ops.object.mode_set(mode="EDIT")
+    w = rig.body.weights.tocsc()
+    for b, name in enumerate(rig.bones):
+        col = w[:, b]
+        head = (col.T @ rig.body.rest).ravel() / col.sum() if col.nnz else np.zeros(3)
+        bone = data.edit_bones.new(name)
+        bone.head, bone.tail = tuple(head), tuple(head + (0.0, 0.0, 0.04))
+    bpy.ops.object.mode_set(mode="OBJECT")
+    return arm
+
+
+def _keyframes(arm, rig, frames):
+    """pose_bone.matrix = M_b R_b each keyed frame (R_b the bone's rest in the armature), so the
+    Armature modifier deforms a vertex by sum_b w_b M_b v, the poses' skinning."""
+    rest = {pb.name: np.array(pb.bone.matrix_local) for pb in arm.pose.bones}
+    for f in sorted({*range(0, len(frames), KEY_EVERY), len(frames) - 1}):
+        for b, name in enumerate(rig.bones):
+            pb = arm.pose.bones[name]
+            pb.matrix = mathutils.Matrix((frames[f][b] @ rest[name]).tolist())
+            for path in ("location", "rotation_quaternion", "scale"):
+                pb.keyframe_insert(path, frame=f + 1)

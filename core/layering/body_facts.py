@@ -40,6 +40,7 @@ class BodyFacts:
         self._normals = self._radius = self._search = self._pieces = self._scene = self._edges = None
         self._normal_agreement = None
         self._longest = None
+        self._carried_junctions = {}
         self._junctions = {}
         self.prepared_kept = Cache(max_entries=KEEP_PREPARED, max_bytes=PREPARED_BYTES)
 
@@ -165,8 +166,19 @@ class BodyFacts:
     def _junctions_of(self, segment):
         key = digest(segment)
         if key not in self._junctions:
-            self._junctions = {key: [part_junctions(self.vertices, self.faces, segment), None]}
+            at, other = self._carried_junctions.get(key) or junction_vertices(self.vertices, self.faces, segment)
+            self._junctions = {key: [(self.vertices[at], segment[at], other), None, (at, other)]}
         return self._junctions[key]
+
+    def junctions_found(self):
+        """{segment digest: (junction vertices, other part)} a resolve asked for, for the next frame."""
+        return {k: v[2] for k, v in self._junctions.items()}
+
+    def carry_junctions(self, found) -> None:
+        """Take the last frame's junction vertices for this body of the same topology and parts (where
+        parts meet moves with the body; which vertices lie there hardly changes)."""
+        if found:
+            self._carried_junctions = dict(found)
 
     def prepared(self, key):
         """What a resolve on this body found for one garment (its body points, normals, parts),
@@ -201,6 +213,12 @@ def part_junctions(vertices, faces, segment):
     """Body vertices where two parts meet: an edge to a vertex of another part (one surface),
     or within half an edge of another part's surface (parts modelled apart that overlap at
     the joints). Returns (positions, own part, other part)."""
+    at, other = junction_vertices(vertices, faces, segment)
+    return vertices[at], segment[at], other
+
+
+def junction_vertices(vertices, faces, segment):
+    """part_junctions' vertices and the other part at each: (indices, other part)."""
     e = topology_of(faces, len(vertices)).edges  # the body's, kept for the next call
     cross = segment[e[:, 0]] != segment[e[:, 1]]
     at = [e[cross, 0], e[cross, 1]]
@@ -244,5 +262,4 @@ def part_junctions(vertices, faces, segment):
         other.append(segment[nb[pr[close]]])
     at, other = np.concatenate(at), np.concatenate(other)
     key = np.unique(at * (int(segment.max()) + 1) + other)
-    at, other = key // (int(segment.max()) + 1), key % (int(segment.max()) + 1)
-    return vertices[at], segment[at], other
+    return key // (int(segment.max()) + 1), key % (int(segment.max()) + 1)

@@ -101,6 +101,7 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
     facts = body_facts(bv, bf)
     if previous is not None:
         facts.carry_radius(getattr(previous, "body_radius", None))
+        facts.carry_junctions(getattr(previous, "body_junctions", None))
     p = LayeringParameters.parse(facts, bv, bf, garr, body_segments, params)
 
     t0 = time.perf_counter()
@@ -136,6 +137,7 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
     result.frames_clear = clear
     result.lifts = lifts
     result.body_radius = facts.radius_found
+    result.body_junctions = facts.junctions_found()
     return result
 
 

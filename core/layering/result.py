@@ -30,6 +30,7 @@ class LayeringResult:
         self._complete = complete  # fills the untraced garments' entries in place
         self.frames_clear = None  # per garment and face, frames since it last crossed (resolve's hold)
         self.body_radius = None  # the body's radii the probes took, for the next frame
+        self.body_junctions = None  # where the body's parts meet (BodyFacts.junctions_found), the same
         self.lifts = None  # per garment, how far each vertex was lifted off the body (body_lift)
 
     def _completed(self):
