@@ -4,6 +4,7 @@ as its own Python module installed by .ci/setup. blender_smoke.py installs the z
 walks through resolve, inspect, both render engines, Bake Frames and the jellyfish; the process must
 exit 0."""
 
+import os
 import subprocess
 from pathlib import Path
 
@@ -18,7 +19,10 @@ STEPS = ["install and register", "resolve", "inspect", "render cycles", "render 
 @pytest.mark.parametrize("version", ["4.2", "5.0", "5.2"])
 def test_the_extension_installs_works_and_exits_cleanly_in_blender(extension_zip, version):
     python = ROOT / ".venv-blender" / version / "bin" / "python"
-    assert python.is_file(), f"no Blender {version} module: bash .ci/setup installs it"
+    if not python.is_file():
+        if os.environ.get("CI"):
+            pytest.fail(f"no Blender {version} module: bash .ci/setup installs it")
+        pytest.skip(f"no Blender {version} module here: bash .ci/setup installs it when its Python is installed")
     run = subprocess.run([str(python), str(SMOKE), str(extension_zip)], capture_output=True, text=True, timeout=900)
     lines = run.stdout.splitlines()
     said = "\n".join(lines[-15:] + run.stderr.splitlines()[-15:])
