@@ -132,6 +132,7 @@ class DeformRTSceneProperties(bpy.types.PropertyGroup):
         description="Reflection and refraction recursion limit of the DeformRT Layered render",
         default=4,
         min=0,
+        max=16,
         soft_max=12,
     )
     render_area_samples: IntProperty(
@@ -140,6 +141,7 @@ class DeformRTSceneProperties(bpy.types.PropertyGroup):
         "soft shadows",
         default=4,
         min=1,
+        max=32,
         soft_max=16,
     )
     last_report: StringProperty(

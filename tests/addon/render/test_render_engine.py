@@ -843,3 +843,27 @@ def test_persistent_data_keeps_the_ray_scenes_while_the_meshes_stay_the_same(ext
     scene.render.use_persistent_data = False
     _render(studio, scene, tmp_path)
     assert len(made) == 3 and len(reading.PERSISTENT) == 0
+
+
+def test_settings_a_file_stores_out_of_range_are_named_and_clamped(studio, clean_scene, tmp_path, capsys):
+    """Area Light Samples 0 and Max Bounces -1 stored in a file (the panel allows 1-32 and 0-16):
+    the frame renders as with the nearest allowed values and the render says which it changed;
+    3000 samples (hours a frame) render as 32."""
+    scene = _engine(clean_scene)
+    _white_floor(scene)
+    light = bpy.data.objects.new("Panel", bpy.data.lights.new("Panel", "AREA"))
+    light.data.energy, light.location = 30.0, (0, 0, 1.0)
+    scene.collection.objects.link(light)
+    scene.deformrt.render_area_samples, scene.deformrt.render_max_depth = 1, 0
+    allowed = _render(studio, scene, tmp_path, size=(8, 8))
+    scene.deformrt["render_area_samples"], scene.deformrt["render_max_depth"] = 0, -1  # as a crafted file holds them
+    assert (scene.deformrt.render_area_samples, scene.deformrt.render_max_depth) == (0, -1)
+    capsys.readouterr()
+    np.testing.assert_array_equal(_render(studio, scene, tmp_path, size=(8, 8)), allowed)
+    said = capsys.readouterr()
+    assert "Area Light Samples 0 is outside 1-32: rendered with 1" in said.out + said.err
+    assert "Max Bounces -1 is outside 0-16: rendered with 0" in said.out + said.err
+    scene.deformrt["render_area_samples"] = 3000
+    huge = _render(studio, scene, tmp_path, size=(8, 8))
+    scene.deformrt.render_area_samples = 32
+    np.testing.assert_array_equal(huge, _render(studio, scene, tmp_path, size=(8, 8)))
