@@ -44,14 +44,31 @@ def read(scene) -> LayersReport | None:
     return from_json(scene.deformrt.last_report)
 
 
+# A report this version writes is a few kilobytes; a file may hold anything (a 64 MB string froze
+# the panel's redraw for minutes, a 200,000-deep list overflowed the parser on every redraw)
+MAX_CHARS = 64 * 1024
+DAMAGED = LayersReport(kind="damaged", message="The last report stored in this file cannot be read (damaged); "
+                       "Resolve Layers or Inspect writes a new one")
+
+
 def from_json(text: str) -> LayersReport | None:
+    """The report in ``text``; None for none (or one from a version without reports), DAMAGED for
+    one that is too long, not JSON, nested past reason or with a field of the wrong type."""
     if not text:
         return None
+    if not isinstance(text, str) or len(text) > MAX_CHARS:
+        return DAMAGED
     try:
         data = json.loads(text)
-    except ValueError:
-        return None
-    known = {f.name for f in fields(LayersReport)}
+    except (ValueError, RecursionError):
+        return DAMAGED
     if not isinstance(data, dict) or "message" not in data:
         return None
-    return LayersReport(**{"kind": data.get("kind", ""), **{k: v for k, v in data.items() if k in known}})
+    values = {"kind": data.get("kind", ""), **{f.name: data[f.name] for f in fields(LayersReport) if f.name in data}}
+    defaults = LayersReport(kind="", message="")
+    for name, value in values.items():
+        want = type(getattr(defaults, name))
+        if not (isinstance(value, want) or (want is float and isinstance(value, int))) or isinstance(value, bool) \
+                and want is not bool:
+            return DAMAGED
+    return LayersReport(**values)

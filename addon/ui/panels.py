@@ -142,7 +142,15 @@ class DEFORMRT_PT_jellyfish(bpy.types.Panel):
 
 
 def report_lines(last) -> list:
-    """What the panel says of a LayersReport (None: nothing)."""
+    """What the panel says of a LayersReport (None: nothing); a report whose entries are not what
+    this version writes (a crafted or damaged file) is said to be damaged, not raised on every redraw."""
+    try:
+        return _report_lines(last)
+    except (TypeError, ValueError, AttributeError):
+        return [report.DAMAGED.message]
+
+
+def _report_lines(last) -> list:
     if last is None:
         return []
     lines = [last.message]

@@ -66,3 +66,22 @@ def test_a_long_report_is_wrapped_to_the_sidebar(extension, tubes):
 def test_the_jellyfish_has_a_tab_of_its_own(extension):
     panels = importlib.import_module(f"{extension.__name__}.addon.ui.panels")
     assert panels.DEFORMRT_PT_jellyfish.bl_category != panels.DEFORMRT_PT_layers.bl_category
+
+
+def test_a_damaged_or_crafted_report_is_named_and_the_panel_still_draws(extension, tubes):
+    """A 64 MB message, a 200,000-deep list, a field of the wrong type, entries of the wrong shape:
+    each draws the one sentence saying the report is damaged (a few labels, not a label per 60
+    characters of 64 MB) and never raises."""
+    scene = bpy.context.scene
+    damaged = importlib.import_module(f"{extension.__name__}.addon.layers.report").DAMAGED.message
+    good = json.dumps({"kind": "resolve", "message": "Resolved 2 garments"})
+    for text in ('{"message": "' + "x" * (64 << 20) + '"}', "[" * 200_000 + "]" * 200_000,
+                 '{"message": 5}', '{"message": "m", "still_crossing": [["a", "b"]]}',
+                 '{"message": "m", "probe_by_part": {"torso": "wide"}}', "not json"):
+        scene.deformrt.last_report = text
+        labels = [d[1] for d in draw(extension, "DEFORMRT_PT_resolve") if d[0] == "label" and d[1]]
+        assert len(labels) <= 6
+        assert damaged[:40] in " ".join(labels).replace("  ", " "), text[:40]
+    scene.deformrt.last_report = good
+    labels = [d[1] for d in draw(extension, "DEFORMRT_PT_resolve") if d[0] == "label" and d[1]]
+    assert "Resolved 2 garments" in labels and damaged[:40] not in " ".join(labels)
