@@ -184,6 +184,34 @@ def test_a_change_undone_is_forgotten_and_a_renamed_body_is_no_change(extension,
     rig.location.x += 0.3
     rig.keyframe_insert("location", frame=10)
     bpy.context.scene.frame_set(10)
-    assert staleness.stale_garments(bpy.context.scene) == []
+    assert staleness.check_scene(bpy.context.scene) == []  # as a render of frame 10 checks
     bpy.context.scene.frame_set(1)
     assert staleness.stale_garments(bpy.context.scene) == []
+
+
+def test_the_bodys_own_edits_make_every_result_stale_and_its_animation_does_not(extension, tubes):
+    body, (shirt, jacket) = tubes
+    staleness = sub(extension, "addon.layers.staleness")
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    co = np.empty(len(body.data.vertices) * 3)
+    body.data.vertices.foreach_get("co", co)
+    moved = co.copy()
+    moved[2::3] += 0.001  # the whole body 1 mm up, in its mesh
+    body.data.vertices.foreach_set("co", moved)
+    body.data.update()
+    bpy.context.view_layer.update()
+    stale = dict((g.name, r) for g, r in staleness.stale_garments(bpy.context.scene))
+    assert stale.get("Shirt") == "Body's mesh or shape keys changed"
+    body.data.vertices.foreach_set("co", co)  # undone: forgotten
+    body.data.update()
+    bpy.context.view_layer.update()
+    assert staleness.stale_garments(bpy.context.scene) == []
+    # the body animated (keyed: it breathes 5 mm up and down under its garments): animation is what
+    # Resolve on Frame Change follows, not an edit that switches the result off
+    body.keyframe_insert("location", frame=1)
+    body.location.z += 0.005
+    body.keyframe_insert("location", frame=10)
+    bpy.context.scene.frame_set(1)
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    bpy.context.scene.frame_set(10)
+    assert staleness.check_scene(bpy.context.scene) == []  # as a render of frame 10 checks
