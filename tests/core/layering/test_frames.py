@@ -177,3 +177,4 @@ def test_a_lift_off_the_body_eases_out_at_its_rate_in_playback():
     assert not alone.lifts[0].any()
     after = resolve_layers(body, clear, correspondence=first.found()[1], previous=first)
     np.testing.assert_allclose(after.lifts[0], first.lifts[0] - RATE * after.stats["gap"], rtol=1e-9)
+

@@ -726,3 +726,32 @@ def test_a_sheet_facing_the_other_way_does_not_stop_the_probe():
     res = resolve_layers(body, [mesh(low_v, low_f), high], offset=d, probe_distance=0.05, boundary_pass=False,
                          global_normals=[np.tile([0.0, 0.0, 1.0], (len(low_v), 1)), up])
     np.testing.assert_allclose(res.garments[0].vertices[:, 2], 0.015 - d, atol=1e-9)
+
+
+def test_the_inner_shell_of_a_garment_with_thickness_is_not_lifted():
+    """A garment with two shells, as Solidify makes it (the inner one facing the body), sunk 1 mm into
+    a tube body: its outer shell is lifted to the floor, its inner shell, behind the outer, is not."""
+    body = body_tube(n=48)
+    outer_v, faces = tube(0.149, 0.12, 0.48, n_around=48, n_along=24)
+    inner_v, _ = tube(0.147, 0.12, 0.48, n_around=48, n_along=24)
+    shell = mesh(np.vstack([outer_v, inner_v]), np.vstack([faces, faces[:, ::-1] + len(outer_v)]))
+    over = mesh(*tube(0.17, 0.1, 0.5, n_around=48, n_along=24))
+    res = resolve_layers(body, [shell, over], boundary_pass=False, push_behind=False, body_guard=False,
+                         remove_hidden=False)
+    moved = np.linalg.norm(res.moved[0], axis=1)
+    assert (moved[:len(outer_v)] > 0.001).all()  # out of the body, to the floor
+    assert not moved[len(outer_v):].any()
+
+
+def test_a_higher_layer_near_the_end_of_the_probe_is_still_found():
+    """The push probe starts a gap out and reaches l_s past its vertex: a higher sheet lying
+    l_s - gap/2 beneath a lower one is within reach, and the lower sheet goes a gap behind it."""
+    body = slab_body(size=1.0, thickness=0.2, subdivisions=4)
+    reach, offset = 0.03, 0.004
+    low = mesh(*sheet(size=0.4, n=21, z=0.05))
+    high = mesh(*sheet(size=0.2, n=11, z=0.05 - (reach - offset / 2)))
+    res = resolve_layers(body, [low, high], probe_distance=reach, offset=offset, boundary_pass=False,
+                         body_guard=False, remove_hidden=False)
+    over = (np.abs(low.vertices[:, :2]) < 0.09).all(1)  # under the patch, away from its edge
+    np.testing.assert_allclose(res.garments[0].vertices[over, 2], high.vertices[0, 2] - res.stats["gap"], atol=1e-6)
+    assert np.allclose(res.moved[0][~(np.abs(low.vertices[:, :2]) < 0.11).all(1)], 0.0)
