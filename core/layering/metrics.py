@@ -60,7 +60,7 @@ def camera_ring(center, radius, views=8, elevations_deg=(0.0, 35.0), resolution=
     """
     center = np.asarray(center, dtype=np.float64)
     dist = 3.0 * radius
-    half = np.arctan(radius / dist) * 1.05
+    half = np.arcsin(radius / dist) * 1.05  # the sphere's angular radius (its tangent rays), 5% of margin
     s = np.tan(half) * np.linspace(-1, 1, resolution)
     sx, sy = np.meshgrid(s, -s)
     out = []

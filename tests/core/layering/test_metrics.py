@@ -160,3 +160,56 @@ def test_a_higher_layer_revealed_by_removing_faces_is_no_hole_and_the_background
     assert new_holes([lower, higher], [cut, higher], cameras=cams) == 0.0  # the higher one shows
     alone = new_holes([lower, higher], [cut, (higher[0], higher[1][:0])], cameras=cams)
     assert 0.3 < alone < 0.7  # with nothing under, about half the pixels now show the background
+
+
+def test_the_camera_ring_frames_its_sphere_whole_and_close():
+    """Each view sees the whole sphere it frames (every ray on the image's border misses it) and
+    fills most of the image with it: the share of rays that meet it is the analytic disc over
+    square (pi/4 (tan a / tan h)^2, a the sphere's angular radius from 3 radii, h = 1.05 a: 5% of
+    margin)."""
+    from core.layering.metrics import camera_ring
+
+    r, res = 0.7, 96
+    for origins, dirs in camera_ring([0.2, -0.1, 1.0], r, views=3, resolution=res):
+        t = ray_sphere_t(origins - [0.2, -0.1, 1.0], dirs / np.linalg.norm(dirs, axis=1, keepdims=True), r)
+        hit = np.isfinite(t).reshape(res, res)
+        assert not hit[0].any() and not hit[-1].any() and not hit[:, 0].any() and not hit[:, -1].any()
+        a = np.arcsin(1 / 3)
+        expected = np.pi / 4 * (np.tan(a) / np.tan(1.05 * a)) ** 2
+        assert hit.mean() == pytest.approx(expected, rel=0.03)
+
+
+def test_poke_through_looks_two_percent_of_the_scene_behind_by_default():
+    """A lower square in front of a higher one (it shows through): counted when it lies 1% of the
+    scene's radius in front, not when 3% (the default depth is 2% of the radius)."""
+    from core.layering.metrics import camera_ring, layer_bounds, poke_through
+
+    def square(z, half=0.5):
+        v = np.array([[-half, -half, z], [half, -half, z], [half, half, z], [-half, half, z]], float)
+        return v, np.array([[0, 1, 2], [0, 2, 3]])
+
+    def share(gap):
+        layers = [square(1.0), square(1.0 - gap, half=0.6)]  # the higher layer behind the lower, seen from +z
+        center, radius = layer_bounds(layers)
+        cams = [c for c in camera_ring(center, radius, views=1, elevations_deg=(89.9,), resolution=48)]
+        return poke_through(layers, cameras=cams)[0], radius
+
+    _, radius = share(0.0)
+    near, _ = share(0.01 * radius)
+    far, _ = share(0.03 * radius)
+    assert near > 0.5 and far == 0.0
+
+
+def test_the_99th_percentile_stretch_sees_a_seam_that_is_three_percent_of_the_edges():
+    """100 separate triangles, 5 of them with one corner pulled: 10 of 300 edges (3.3%) stretch
+    by the same ratio R, so the 99th percentile is R (and the 90th would be 1)."""
+    from core.layering.metrics import distortion
+
+    tri = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    v0 = np.vstack([tri + [3 * k, 0, 0] for k in range(100)])
+    f = np.arange(300).reshape(100, 3)
+    v1 = v0.copy()
+    v1[[3 * k for k in range(5)]] -= [1.0, 1.0, 0.0]  # corner 0 of five triangles moved 1 down-left
+    ratio = np.linalg.norm(tri[1] - (tri[0] - [1, 1, 0])) / 1.0  # both edges at corner 0: sqrt(5)
+    out = distortion(v0, v1, f)
+    assert out["p99_stretch"] == pytest.approx(ratio) and out["max_stretch"] == pytest.approx(ratio)
