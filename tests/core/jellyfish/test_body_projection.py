@@ -71,6 +71,12 @@ def test_corrections_converge_to_the_dense_constrained_projection(free):
     assert all(b <= a * (1 + 1e-9) for a, b in zip(misses, misses[1:], strict=False))
     assert errors[1] < 0.6 * errors[0] and errors[-1] < 1e-6 * np.abs(exact_u).max()
     assert abs(runs[-1].speed - exact_speed) < 1e-6
+    # the miss reported is the field's distance on the body from the body's velocity, its free speed included
+    for r in runs:
+        wanted = own.copy()
+        if free is not None:
+            wanted[:, free] += r.speed
+        assert r.miss == pytest.approx(np.abs(r.u[body.mask] - wanted).max(), rel=1e-12, abs=1e-15)
     if free is not None:  # the water's and the body's momentum along the axis is kept by every answer
         for r in runs:
             assert r.u[:, 1] @ f.volume == pytest.approx(momentum, abs=1e-12)
