@@ -59,13 +59,6 @@ class AxisymmetricFluid(LatticeFluid):
         u = self.u if u is None else u
         return super().divergence(u) + u[:, 0] / self.radius
 
-    def laplacian(self, u):
-        ext = self._extended(u)
-        out = super().laplacian(u) + np.column_stack([self._radial_gradient() @ ext[:, k] for k in (0, 1)]) / \
-            self.radius[:, None]
-        out[:, 0] -= u[:, 0] / self.radius**2
-        return out
-
     def _viscous_operator(self, k):
         key = ("operator", k)
         if key not in self._viscous:

@@ -164,9 +164,6 @@ class LatticeFluid:
         ext = self._extended(u)
         return (self._nb.gradient(ext[:, 1], self.n0)[:, 0] - self._nb.gradient(ext[:, 0], self.n0)[:, 1])
 
-    def laplacian(self, u):
-        return self._nb.laplacian(self._extended(u), self.n0, self.lam)
-
     # --- one step -------------------------------------------------------------------
     def stable_dt(self) -> float:
         speed = float(np.abs(self.u).max(initial=0.0))

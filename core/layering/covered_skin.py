@@ -16,8 +16,7 @@ def covered_faces(body_vertices, body_faces, garments, reach_out, reach_in, marg
     """Per body face, whether cloth lies over every point of it: along the body's normal from each
     corner and from its centre, a garment triangle (either side facing) within ``reach_out``
     outward or ``reach_in`` inward (cloth a little inside the skin). ``garments``: (vertices,
-    faces) pairs; ``reach_out`` a distance or one per body vertex (the centre takes its corners'
-    smallest). A face at a hem, under a neckline or a sleeve's opening has a point with no
+    faces) pairs. A face at a hem, under a neckline or a sleeve's opening has a point with no
     cloth over it and is kept, and so is every face within ``margin`` of one over the body's
     surface: looking into a sleeve, the skin just inside its opening shows."""
     bv = np.asarray(body_vertices, dtype=np.float64)
@@ -29,16 +28,14 @@ def covered_faces(body_vertices, body_faces, garments, reach_out, reach_in, marg
     offsets = np.cumsum([0] + [len(v) for v, _ in garments])
     cloth = RayScene(np.vstack([v for v, _ in garments]),
                      np.vstack([f + o for (_, f), o in zip(garments, offsets[:-1], strict=True)]))
-    reach_v = np.broadcast_to(np.asarray(reach_out, dtype=np.float64), (len(bv),))
     a, b, c = (bv[bf[:, k]] for k in range(3))
     points = np.vstack([bv, (a + b + c) / 3.0])
     normals = np.vstack([vertex_normals(bv, bf), unit(cross(b - a, c - a))])
-    reach = np.concatenate([reach_v, reach_v[bf].min(axis=1)])
     ok = np.linalg.norm(normals, axis=1) > 0
     over = np.zeros(len(points), dtype=bool)
     # from a little inside the skin outward: cloth inside it by up to reach_in counts too
     start = points[ok] - normals[ok] * reach_in
-    over[ok] = cloth.occluded(start, normals[ok], max_dist=reach[ok] + reach_in)
+    over[ok] = cloth.occluded(start, normals[ok], max_dist=float(reach_out) + reach_in)
     n_v = len(bv)
     covered = over[bf].all(axis=1) & over[n_v:]
     if margin > 0 and not covered.all():
