@@ -105,6 +105,19 @@ def test_collinear_and_coplanar_centres_are_refused():
         VolumeSpline(plane, uv[:, 0])
 
 
+def test_a_thin_but_valid_set_of_centres_is_accepted_and_interpolates():
+    """Centres along a line bent off it by 1e-5 of their spread (a bell's margin nearly straight):
+    the linear part is determined, the spline goes through every value and equals scipy's."""
+    t = np.linspace(0, 1, 12)
+    c = np.column_stack([t, 2 * t + 1 + 1e-5 * np.sin(7 * t)])
+    v = np.column_stack([np.cos(3 * t), t ** 2])
+    s = VolumeSpline(c, v)
+    np.testing.assert_allclose(s(c), v, atol=1e-8)
+    q = c[:-1] + 0.5 * np.diff(c, axis=0)
+    ref = RBFInterpolator(c, v, kernel="thin_plate_spline", degree=1)(q)
+    np.testing.assert_allclose(s(q), ref, atol=1e-6 * np.abs(ref).max())
+
+
 @pytest.mark.parametrize("bad, match", [
     (dict(centers=np.zeros((2, 2)), values=np.zeros(2)), "at least 3"),
     (dict(centers=np.full((5, 2), np.nan), values=np.zeros(5)), "finite"),
