@@ -418,6 +418,21 @@ def test_square_area_light_gives_the_view_factor_irradiance():
               + y / np.sqrt(1 + y**2) * np.arctan(x / np.sqrt(1 + y**2))) / (2 * np.pi)
     radiance = intensity / 1.0  # I / area
     np.testing.assert_allclose(img.colour, np.pi * radiance * 4 * corner, rtol=2e-3)
+    # off to the side (a point outside the light's footprint): the rectangle's view factor by
+    # superposition of corner rectangles, G(x, y) = sign(x) sign(y) f(|x|, |y|)
+    def f(x, y):
+        return (x / np.sqrt(1 + x**2) * np.arctan(y / np.sqrt(1 + x**2))
+                + y / np.sqrt(1 + y**2) * np.arctan(x / np.sqrt(1 + y**2))) / (2 * np.pi)
+
+    def g(x, y):
+        return np.sign(x) * np.sign(y) * f(abs(x), abs(y))
+
+    px, py = 0.8, 0.3
+    x1, x2, y1, y2 = -0.5 - px, 0.5 - px, -0.5 - py, 0.5 - py
+    side = g(x2, y2) - g(x1, y2) - g(x2, y1) + g(x1, y1)
+    o[:, :2] = (px, py)
+    img = render(scene, [Material(colour=(1, 1, 1))], [light], o, d)
+    np.testing.assert_allclose(img.colour, np.pi * radiance * side, rtol=2e-3)
     # it lights one side only: flipped (u x v pointing up) the floor gets nothing
     dark = Light("AREA", (0, 0, 1.0), (intensity,) * 3, edges=((0.5, 0, 0), (0, 0.5, 0)), samples=4, disk=True)
     np.testing.assert_array_equal(render(scene, [Material(colour=(1, 1, 1))], [dark], o, d).colour, 0.0)
