@@ -40,6 +40,7 @@ class BodyFacts:
         self._normals = self._radius = self._search = self._pieces = self._scene = self._edges = None
         self._normal_agreement = None
         self._longest = None
+        self._topology = None
         self._carried_junctions = {}
         self._junctions = {}
         self.prepared_kept = Cache(max_entries=KEEP_PREPARED, max_bytes=PREPARED_BYTES)
@@ -68,21 +69,28 @@ class BodyFacts:
     def edges(self):
         """The body's edges: (sorted vertex pairs, lows, highs), the boxes column by column."""
         if self._edges is None:
-            e = topology_of(self.faces, len(self.vertices)).edges
+            e = self.topology.edges
             a, b = self.vertices[e[:, 0]], self.vertices[e[:, 1]]
             self._edges = (e, [np.minimum(a[:, i], b[:, i]) for i in range(3)],
                            [np.maximum(a[:, i], b[:, i]) for i in range(3)])
         return self._edges
 
     @property
+    def topology(self):
+        """The body's MeshTopology (its faces hashed once for this body, not at every ask)."""
+        if self._topology is None:
+            self._topology = topology_of(self.faces, len(self.vertices))
+        return self._topology
+
+    @property
     def vertex_faces(self):
         """MeshTopology.vertex_faces of the body (kept with its topology)."""
-        return topology_of(self.faces, len(self.vertices)).vertex_faces
+        return self.topology.vertex_faces
 
     @property
     def longest_edge(self) -> float:
         if self._longest is None:
-            e = topology_of(self.faces, len(self.vertices)).edges
+            e = self.topology.edges
             self._longest = float(norms(self.vertices[e[:, 0]] - self.vertices[e[:, 1]]).max(initial=0.0))
         return self._longest
 
@@ -108,7 +116,7 @@ class BodyFacts:
     def pieces(self) -> np.ndarray:
         """Per vertex, which connected piece of the body mesh it is on (0..pieces-1)."""
         if self._pieces is None:  # the topology's alone: kept with it for the next frame's body
-            topo = topology_of(self.faces, len(self.vertices))
+            topo = self.topology
             if topo.pieces is None:
                 adjacency = vertex_adjacency(self.faces, len(self.vertices), edges=topo.edges)
                 topo.pieces = frozen(connected_components(adjacency, directed=False)[1].astype(np.int64))
