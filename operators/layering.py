@@ -264,6 +264,8 @@ class DEFORMRT_OT_bake_frames(_NeedsGarments, DeformRTOperator, bpy.types.Operat
         # written beside the target and moved onto it once whole: a stopped or failed bake leaves
         # no partial cache, and an earlier cache at the path stays as it was
         partial = (path[:-4] if path.lower().endswith(".abc") else path) + ".deformrt-partial.abc"
+        if os.path.isfile(partial):  # left by a bake that was killed: ours, by its name; never the cache
+            os.remove(partial)
         stopped, result, failure = False, None, "the Alembic export failed"
         try:
             # the exporter steps the frames; the frame handler resolves each before it is written

@@ -44,7 +44,7 @@ def on_depsgraph_update(scene, depsgraph):
         return
     _notice_switch(scene)
     if (scene.deformrt.resolve_on_frame_change and bpy.context.mode == "OBJECT"
-            and staleness.touched(scene, depsgraph) and staleness.check_scene(scene)):
+            and staleness.touched(scene, depsgraph) and staleness.check_scene(scene, depsgraph)):
         on_frame_change(scene)
 
 

@@ -360,8 +360,15 @@ def _write_covered_skin(scene, job: ResolveJob, result) -> int:
     hidden = np.ones(a.n_polygons, dtype=bool)  # a polygon goes when every triangle of it is covered
     np.logical_and.at(hidden, a.triangle_polygon, covered)
     hidden &= np.bincount(a.triangle_polygon, minlength=a.n_polygons) > 0
-    results.write(scene, body, np.zeros((len(a.vertices), 3)), hidden, made_for=job.body_made_for)
+    results.write(scene, body, np.zeros((len(a.vertices), 3)), hidden, made_for=job.body_made_for,
+                  cage_local=_local(a))
     return int(hidden.sum())
+
+
+def _local(a):
+    """MeshArrays' world vertices back in their object's space."""
+    m = a.matrix_world
+    return (a.vertices - m[:3, 3]) @ np.linalg.inv(m[:3, :3]).T
 
 
 def finish_resolve(scene, job: ResolveJob, result) -> ResolveSummary:
@@ -384,7 +391,7 @@ def finish_resolve(scene, job: ResolveJob, result) -> ResolveSummary:
         hidden = np.zeros(a.n_polygons, dtype=bool)
         hidden[a.triangle_polygon[removed]] = True
         faces_hidden.append(int(hidden.sum()))
-        results.write(scene, obj, moved @ to_local.T, hidden, made_for=made_for)
+        results.write(scene, obj, moved @ to_local.T, hidden, made_for=made_for, cage_local=_local(a))
     skin_hidden = _write_covered_skin(scene, job, result)
     write_s = time.perf_counter() - t1
     st = result.stats

@@ -16,7 +16,7 @@ from ..io import blender_versions
 
 GROUP_NAME = "DeformRT Result"
 # Bump when the node layout changes: files saved with an older group get it rebuilt.
-GROUP_VERSION = 3
+GROUP_VERSION = 4
 OFFSET_ATTRIBUTE = "deformrt_offset"
 HIDDEN_ATTRIBUTE = "deformrt_hidden"
 # True on the data object's points: pass the stack's own geometry through. A flag in the data
@@ -30,6 +30,15 @@ DATA_SOCKET = "Result Data"
 POINT_COUNT_ATTRIBUTE = "deformrt_point_count"
 FACE_COUNT_ATTRIBUTE = "deformrt_face_count"
 COUNTS_KNOWN_ATTRIBUTE = "deformrt_counts_known"
+# Where each vertex was when the correction was made (object space), and how far it may be now:
+# a mesh whose vertices moved since (a value in a node group above, a lattice, a hook, a driver:
+# anything the stack above does) is passed through, whatever moved it. Absent (older data): not
+# checked. The output carries FITS_ATTRIBUTE (whether the vertices are where they were) for the
+# add-on to say so.
+CAGE_ATTRIBUTE = "deformrt_cage"
+CAGE_TOLERANCE_ATTRIBUTE = "deformrt_cage_tolerance"
+CAGE_KNOWN_ATTRIBUTE = "deformrt_cage_known"
+FITS_ATTRIBUTE = "deformrt_fits"
 
 
 def _build(group):
@@ -85,13 +94,36 @@ def _build(group):
         links.new(sampled(attribute, "INT", per_point=False), b)
         differ.append(compare.outputs[0])
     other_mesh = logic("AND", sampled(COUNTS_KNOWN_ATTRIBUTE, "BOOLEAN", per_point=False), logic("OR", *differ))
+    # the vertices' farthest distance from where they were resolved
+    apart = nodes.new("ShaderNodeVectorMath")
+    apart.operation = "DISTANCE"
+    links.new(nodes.new("GeometryNodeInputPosition").outputs["Position"], apart.inputs[0])
+    links.new(sampled(CAGE_ATTRIBUTE, "FLOAT_VECTOR"), apart.inputs[1])
+    farthest = nodes.new("GeometryNodeAttributeStatistic")
+    farthest.data_type, farthest.domain = "FLOAT", "POINT"
+    links.new(inputs.outputs["Geometry"], farthest.inputs["Geometry"])
+    links.new(apart.outputs["Value"], farthest.inputs["Attribute"])
+    beyond = nodes.new("FunctionNodeCompare")
+    beyond.data_type, beyond.operation = "FLOAT", "GREATER_THAN"
+    links.new(farthest.outputs["Max"], beyond.inputs["A"])
+    links.new(sampled(CAGE_TOLERANCE_ATTRIBUTE, "FLOAT", per_point=False), beyond.inputs["B"])
+    moved = logic("AND", sampled(CAGE_KNOWN_ATTRIBUTE, "BOOLEAN", per_point=False), beyond.outputs["Result"])
+    elsewhere = logic("OR", other_mesh, moved)
     switch = nodes.new("GeometryNodeSwitch")
     switch.input_type = "GEOMETRY"
-    links.new(logic("OR", sampled(BYPASS_ATTRIBUTE, "BOOLEAN", per_point=False), other_mesh), switch.inputs["Switch"])
+    links.new(logic("OR", sampled(BYPASS_ATTRIBUTE, "BOOLEAN", per_point=False), elsewhere), switch.inputs["Switch"])
     links.new(drop.outputs["Geometry"], switch.inputs["False"])
     links.new(inputs.outputs["Geometry"], switch.inputs["True"])
-    links.new(switch.outputs["Output"], output.inputs["Geometry"])
-    for i, node in enumerate((inputs, info, index, move, drop, switch, output)):
+    fits = nodes.new("FunctionNodeBooleanMath")
+    fits.operation = "NOT"
+    links.new(elsewhere, fits.inputs[0])
+    store = nodes.new("GeometryNodeStoreNamedAttribute")
+    store.data_type, store.domain = "BOOLEAN", "POINT"
+    store.inputs["Name"].default_value = FITS_ATTRIBUTE
+    links.new(switch.outputs["Output"], store.inputs["Geometry"])
+    links.new(fits.outputs[0], store.inputs["Value"])
+    links.new(store.outputs["Geometry"], output.inputs["Geometry"])
+    for i, node in enumerate((inputs, info, index, move, drop, switch, store, output)):
         node.location = (220 * i, 0)
     group["deformrt_version"] = GROUP_VERSION
 

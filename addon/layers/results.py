@@ -129,13 +129,13 @@ def _set_points(mesh, name, kind, values):
         if attr is not None:
             mesh.attributes.remove(attr)
         attr = mesh.attributes.new(name, kind, "POINT")
-    attr.data.foreach_set("value", values)
+    attr.data.foreach_set("vector" if kind == "FLOAT_VECTOR" else "value", values)
 
 
-def _fill_data_mesh(mesh, offsets, hidden):
+def _fill_data_mesh(mesh, offsets, hidden, cage=None):
     """Offsets per vertex and hidden flags per face, both indexed from 0 on the data mesh's
-    points (a point cloud in mesh form: the Sample Index nodes read them by index), and the
-    counts of the mesh they were made for."""
+    points (a point cloud in mesh form: the Sample Index nodes read them by index), the counts
+    of the mesh they were made for and, given, where its vertices were (object space)."""
     count = max(len(offsets), len(hidden), 1)
     if len(mesh.vertices) != count or mesh.polygons:
         mesh.clear_geometry()
@@ -155,15 +155,28 @@ def _fill_data_mesh(mesh, offsets, hidden):
     _set_points(mesh, result_nodes.POINT_COUNT_ATTRIBUTE, "INT", np.full(count, len(offsets), dtype=np.int32))
     _set_points(mesh, result_nodes.FACE_COUNT_ATTRIBUTE, "INT", np.full(count, len(hidden), dtype=np.int32))
     _set_points(mesh, result_nodes.COUNTS_KNOWN_ATTRIBUTE, "BOOLEAN", np.ones(count, dtype=bool))
+    known = cage is not None and len(cage) == len(offsets)
+    at = np.zeros((count, 3), dtype=np.float32)
+    tolerance = 0.0
+    if known:
+        at[:len(cage)] = cage
+        # float32 positions read, turned to the world and back: a few units in the last place of the
+        # coordinates; a move a hundred-thousandth of the mesh's size is a move
+        size = float(np.ptp(cage, axis=0).max(initial=0.0)) + float(np.abs(cage).max(initial=0.0))
+        tolerance = 1e-5 * size
+    _set_points(mesh, result_nodes.CAGE_ATTRIBUTE, "FLOAT_VECTOR", at.ravel())
+    _set_points(mesh, result_nodes.CAGE_TOLERANCE_ATTRIBUTE, "FLOAT", np.full(count, tolerance, dtype=np.float32))
+    _set_points(mesh, result_nodes.CAGE_KNOWN_ATTRIBUTE, "BOOLEAN", np.full(count, known))
     _set_bypass(mesh, False)
     mesh.update()  # the garment's result follows as the data's dependent
 
 
-def write(scene, obj, offsets_local, hidden_faces, stats=None, made_for=None) -> None:
+def write(scene, obj, offsets_local, hidden_faces, stats=None, made_for=None, cage_local=None) -> None:
     """Show ``obj`` moved by ``offsets_local`` (per vertex where the result sits, object space)
     and without ``hidden_faces`` (per polygon there): data object and modifier, created or
     updated, the modifier put in its place in the stack. ``made_for`` is the fingerprint of
-    what was resolved (``staleness.fingerprint``)."""
+    what was resolved (``staleness.fingerprint``); ``cage_local``: where the vertices were (object
+    space), so the result passes a mesh whose vertices moved since through (``result_nodes``)."""
     group = result_nodes.node_group()
     key = result_nodes.data_socket_id(group)
     mod = result_modifier(obj)
@@ -180,7 +193,7 @@ def write(scene, obj, offsets_local, hidden_faces, stats=None, made_for=None) ->
         data.hide_viewport = True
         _hidden_collection(scene, DATA_COLLECTION).objects.link(data)
     data[OWNER_PROPERTY] = obj
-    _fill_data_mesh(data.data, offsets_local, hidden_faces)
+    _fill_data_mesh(data.data, offsets_local, hidden_faces, cage_local)
     if stats:
         data["deformrt_stats"] = stats
     if made_for is not None:
@@ -200,6 +213,17 @@ def write(scene, obj, offsets_local, hidden_faces, stats=None, made_for=None) ->
         blender_versions.set_modifier_input(mod, key, data)
         mod.show_viewport = mod.show_render = True
         obj.update_tag()
+
+
+def fits_now(obj, depsgraph) -> bool | None:
+    """Whether the garment's vertices are where its result was made for, as its evaluated mesh
+    says (``result_nodes.FITS_ATTRIBUTE``); None when that cannot be read (no result shown, an
+    older group)."""
+    mesh = obj.evaluated_get(depsgraph).data
+    attr = mesh.attributes.get(result_nodes.FITS_ATTRIBUTE) if mesh is not None else None
+    if attr is None or attr.data_type != "BOOLEAN" or not len(attr.data):
+        return None
+    return bool(attr.data[0].value)
 
 
 def read_offsets(obj, n_vertices):

@@ -192,12 +192,13 @@ def _with_results(scene) -> list:
     return [o for o in scene.objects if o.type == "MESH" and results.result_modifier(o) is not None]
 
 
-def check_scene(scene) -> list:
+def check_scene(scene, depsgraph=None) -> list:
     """Look at every result of the scene as it is now: a field holding what is not the object's
     own result is emptied, a result that does not fit is switched off and one that fits again is
     switched back on. Returns (garment, reason) of those switched off."""
     if _paused:
         return stale_garments(scene)
+    depsgraph = depsgraph if depsgraph is not None else bpy.context.evaluated_depsgraph_get()
     bodies = scene_roles.bodies(scene)
     tagged = set(scene_roles.garments(scene) + bodies)
     for obj in _with_results(scene):
@@ -207,6 +208,10 @@ def check_scene(scene) -> list:
         if obj not in tagged or results.data_object(obj) is None:
             continue
         reason = why_stale(obj, bodies[0]) if len(bodies) == 1 else "the scene has no single body"
+        if not reason and results.fits_now(obj, depsgraph) is False:
+            # the fingerprints do not see it (a value inside a node group, a lattice's points, a
+            # hook's target, a driver): the vertices themselves moved
+            reason = f"{obj.name}'s vertices above DeformRT moved"
         if reason:
             mark(obj, reason)
         else:
@@ -252,7 +257,7 @@ def on_depsgraph_update(scene, depsgraph):
         return
     _checking = True  # marking switches a result off, which is an update of its own
     try:
-        check_scene(scene)  # with Resolve on Frame Change on, frame_handler resolves what was marked
+        check_scene(scene, depsgraph)  # with Resolve on Frame Change on, frame_handler resolves what was marked
     finally:
         _checking = False
 

@@ -215,3 +215,88 @@ def test_the_bodys_own_edits_make_every_result_stale_and_its_animation_does_not(
     assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
     bpy.context.scene.frame_set(10)
     assert staleness.check_scene(bpy.context.scene) == []  # as a render of frame 10 checks
+
+
+def _plain(obj):
+    """The object's evaluated vertices with its DeformRT modifier switched off (then on again)."""
+    from tests.addon.render_capture import evaluated_points
+
+    mod = obj.modifiers["DeformRT"]
+    mod.show_viewport = False
+    plain = evaluated_points(obj)
+    mod.show_viewport = True
+    return plain
+
+
+def _lattice(shirt):
+    lat = bpy.data.objects.new("Lattice", bpy.data.lattices.new("Lattice"))
+    bpy.context.scene.collection.objects.link(lat)
+    lat.scale = (0.5, 0.5, 0.8)
+    lat.location = (0, 0, 0.3)
+    mod = shirt.modifiers.new("Lattice", "LATTICE")
+    mod.object = lat
+    return lambda: setattr(lat.data.points[0], "co_deform", (lat.data.points[0].co_deform[0] - 0.3, 0, 0))
+
+
+def _hook(shirt):
+    target = bpy.data.objects.new("Target", None)
+    bpy.context.scene.collection.objects.link(target)
+    mod = shirt.modifiers.new("Hook", "HOOK")
+    mod.object = target
+    group = shirt.vertex_groups.new(name="hooked")
+    group.add(list(range(10)), 1.0, "REPLACE")
+    mod.vertex_group = "hooked"
+    return lambda: setattr(target, "location", (0.0, 0.0, 0.02))
+
+
+def _nodes(shirt):
+    group = bpy.data.node_groups.new("Nudge", "GeometryNodeTree")
+    group.interface.new_socket(name="Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    group.interface.new_socket(name="Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    src, dst = group.nodes.new("NodeGroupInput"), group.nodes.new("NodeGroupOutput")
+    move = group.nodes.new("GeometryNodeSetPosition")
+    offset = group.nodes.new("FunctionNodeInputVector")  # a value inside the group, not on the modifier
+    group.links.new(src.outputs[0], move.inputs["Geometry"])
+    group.links.new(offset.outputs[0], move.inputs["Offset"])
+    group.links.new(move.outputs[0], dst.inputs[0])
+    mod = shirt.modifiers.new("Nudge", "NODES")
+    mod.node_group = group
+    return lambda: setattr(offset, "vector", (0.0, 0.0, 0.01))
+
+
+def _driven(shirt):
+    mod = shirt.modifiers.new("Displace", "DISPLACE")
+    mod.strength = 0.0
+    fcurve = mod.driver_add("strength")
+    fcurve.driver.expression = "frame * 0.0"
+    return lambda: setattr(fcurve.driver, "expression", "0.01")
+
+
+@pytest.mark.parametrize("make", [_lattice, _hook, _nodes, _driven], ids=["lattice", "hook", "node value", "driver"])
+def test_whatever_moves_the_vertices_above_the_result_passes_it_through_and_undone_shows_it(extension, tubes, make):
+    """The correction is for the vertices as they were: a lattice's points, a hook's target, a value
+    inside a node group or a driver moving them afterwards (none of which the modifier's own
+    settings show) makes the garment show as fitted, and says why; put back, the result shows."""
+    body, (shirt, jacket) = tubes
+    change = make(shirt)
+    shirt.modifiers.move(len(shirt.modifiers) - 1, 0)
+    bpy.context.view_layer.update()
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    shown = rendered_meshes(bpy.context.scene)["Shirt"][0]
+    staleness = sub(extension, "addon.layers.staleness")
+    before = _plain(shirt).copy()
+    change()
+    shirt.update_tag()
+    bpy.context.view_layer.update()
+    now = _plain(shirt)
+    assert np.abs(now - before).max() > 1e-3  # the change did move vertices
+    from tests.addon.render_capture import evaluated_points
+    np.testing.assert_allclose(evaluated_points(shirt), now, atol=1e-7)  # shown as fitted, not corrected
+    stale = dict((g.name, r) for g, r in staleness.check_scene(bpy.context.scene))
+    # a driven setting is seen on the modifier itself; the rest only by where the vertices went
+    assert stale.get("Shirt") in ("Shirt's vertices above DeformRT moved", "Shirt's modifiers above DeformRT changed")
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    again = rendered_meshes(bpy.context.scene)
+    assert overlapping_pairs(again["Shirt"], again["Jacket"]) == 0
+    assert staleness.check_scene(bpy.context.scene) == []
+    assert not np.allclose(again["Shirt"][0], shown)

@@ -152,10 +152,10 @@ def test_a_garment_edited_after_resolve_is_marked_stale_and_shown_as_fitted(exte
                              rendered_meshes(bpy.context.scene)["Jacket"]) == 0
 
 
-@pytest.mark.parametrize("how", ["deleted", "added"])
-def test_a_changed_topology_is_passed_through_by_the_result_group_itself(extension, tubes, how):
+@pytest.mark.parametrize("how", ["moved", "deleted", "added"])
+def test_an_edited_mesh_is_passed_through_by_the_result_group_itself(extension, tubes, how):
     """A file edited where DeformRT is not installed: no handler marks anything, and the group
-    still refuses to apply offsets to a mesh with other counts."""
+    still refuses to apply offsets to a mesh with other counts, or whose vertices moved."""
     body, (shirt, jacket) = tubes
     staleness = sub(extension, "addon.layers.staleness")
     bpy.ops.deformrt.resolve_layers()
