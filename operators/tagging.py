@@ -89,14 +89,19 @@ class DEFORMRT_OT_tag_makehuman(bpy.types.Operator):
         if not clothes:
             self.report({"ERROR"}, f"{body.name} wears no MakeHuman clothes: nothing to layer")
             return {"CANCELLED"}
+        untagged = []
         for obj in context.scene.objects:  # one character's layers: other tags would mix in
             if obj.deformrt.role != "NONE" and obj is not body and obj not in clothes:
                 obj.deformrt.role = "NONE"
+                untagged.append(obj.name)
         body.deformrt.role, body.deformrt.layer = "BODY", 0
         for layer, obj in enumerate(clothes, start=1):
             obj.deformrt.role, obj.deformrt.layer = "GARMENT", layer
         how = "MakeHuman's z_depth" if order == "z_depth" else "kind (no z_depth on every piece)"
-        self.report({"INFO"}, f"Body: {body.name}; layers by {how}: " + " < ".join(o.name for o in clothes))
+        said = f"Body: {body.name}; layers by {how}: " + " < ".join(o.name for o in clothes)
+        if untagged:  # a scene resolves one character at a time: say whose tags went
+            said += f"; untagged (one character is layered at a time): {', '.join(untagged)}"
+        self.report({"INFO"}, said)
         return {"FINISHED"}
 
 

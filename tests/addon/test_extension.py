@@ -259,7 +259,7 @@ def test_one_click_tags_a_makehuman_character_in_its_z_depth_order(clean_scene):
     assert proxy.deformrt.role == "BODY" and body.deformrt.role == "NONE"
 
 
-def test_without_z_depths_the_clothes_go_by_kind_and_two_characters_need_a_choice(clean_scene):
+def test_without_z_depths_the_clothes_go_by_kind_and_two_characters_need_a_choice(clean_scene, capfd):
     _, _, (lining, outfit, shirt) = _character("Ben", z_depths=False)
     assert bpy.ops.deformrt.tag_makehuman() == {"FINISHED"}
     assert [o.name for o in sorted((lining, outfit, shirt), key=lambda o: o.deformrt.layer)] == \
@@ -269,8 +269,12 @@ def test_without_z_depths_the_clothes_go_by_kind_and_two_characters_need_a_choic
     with pytest.raises(RuntimeError, match="More than one MakeHuman character"):
         bpy.ops.deformrt.tag_makehuman()
     select(cleo_clothes[1])
+    capfd.readouterr()
     assert bpy.ops.deformrt.tag_makehuman() == {"FINISHED"}
     assert cleo_body.deformrt.role == "BODY" and lining.deformrt.role == "NONE"
+    said = capfd.readouterr()
+    # Ben's tags went: the report says whose
+    assert "untagged (one character is layered at a time): Ben.body" in said.out + said.err
 
 
 def test_tooltips_are_one_plain_sentence(extension):
