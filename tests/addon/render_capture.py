@@ -8,6 +8,25 @@ import bpy
 import numpy as np
 
 
+def overlapping_pairs(a, b) -> int:
+    """Intersecting triangle pairs between two meshes ((vertices, triangles) each) by mathutils' BVH,
+    independent of core.metrics."""
+    from mathutils.bvhtree import BVHTree
+
+    ta = BVHTree.FromPolygons(a[0].tolist(), a[1].tolist(), all_triangles=True)
+    tb = BVHTree.FromPolygons(b[0].tolist(), b[1].tolist(), all_triangles=True)
+    return len(ta.overlap(tb))
+
+
+def without_result(obj):
+    """The object's evaluated vertices with its DeformRT modifier switched off (then on again)."""
+    mod = obj.modifiers["DeformRT"]
+    mod.show_viewport = False
+    plain = evaluated_points(obj)
+    mod.show_viewport = True
+    return plain
+
+
 def evaluated_points(obj):
     """Object-space vertices of what the viewport evaluates for ``obj`` now."""
     depsgraph = bpy.context.evaluated_depsgraph_get()

@@ -6,8 +6,7 @@ import importlib
 import bpy
 import numpy as np
 
-from tests.addon.layers.test_ownership import overlapping_pairs
-from tests.addon.render_capture import rendered_meshes
+from tests.addon.render_capture import overlapping_pairs, rendered_meshes
 
 
 def sub(ext, path):

@@ -10,19 +10,14 @@ import shutil
 import bpy
 import numpy as np
 import pytest
-from mathutils.bvhtree import BVHTree
 
-from tests.addon.render_capture import rendered_meshes
+from tests.addon.render_capture import overlapping_pairs, rendered_meshes, without_result
 
 
 def sub(ext, path):
     return importlib.import_module(f"{ext.__name__}.{path}")
 
 
-def overlapping_pairs(a, b) -> int:
-    ta = BVHTree.FromPolygons(a[0].tolist(), a[1].tolist(), all_triangles=True)
-    tb = BVHTree.FromPolygons(b[0].tolist(), b[1].tolist(), all_triangles=True)
-    return len(ta.overlap(tb))
 
 
 def own_state(obj):
@@ -217,17 +212,6 @@ def test_the_bodys_own_edits_make_every_result_stale_and_its_animation_does_not(
     assert staleness.check_scene(bpy.context.scene) == []  # as a render of frame 10 checks
 
 
-def _plain(obj):
-    """The object's evaluated vertices with its DeformRT modifier switched off (then on again)."""
-    from tests.addon.render_capture import evaluated_points
-
-    mod = obj.modifiers["DeformRT"]
-    mod.show_viewport = False
-    plain = evaluated_points(obj)
-    mod.show_viewport = True
-    return plain
-
-
 def _lattice(shirt):
     lat = bpy.data.objects.new("Lattice", bpy.data.lattices.new("Lattice"))
     bpy.context.scene.collection.objects.link(lat)
@@ -284,11 +268,11 @@ def test_whatever_moves_the_vertices_above_the_result_passes_it_through_and_undo
     assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
     shown = rendered_meshes(bpy.context.scene)["Shirt"][0]
     staleness = sub(extension, "addon.layers.staleness")
-    before = _plain(shirt).copy()
+    before = without_result(shirt).copy()
     change()
     shirt.update_tag()
     bpy.context.view_layer.update()
-    now = _plain(shirt)
+    now = without_result(shirt)
     assert np.abs(now - before).max() > 1e-3  # the change did move vertices
     from tests.addon.render_capture import evaluated_points
     np.testing.assert_allclose(evaluated_points(shirt), now, atol=1e-7)  # shown as fitted, not corrected

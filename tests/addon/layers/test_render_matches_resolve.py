@@ -9,21 +9,15 @@ import bmesh
 import bpy
 import numpy as np
 import pytest
-from mathutils.bvhtree import BVHTree
 
 from tests.addon import render_capture
-from tests.addon.render_capture import evaluated_points, rendered_meshes
+from tests.addon.render_capture import evaluated_points, overlapping_pairs, rendered_meshes, without_result
 
 
 def sub(ext, path):
     return importlib.import_module(f"{ext.__name__}.{path}")
 
 
-def overlapping_pairs(a, b) -> int:
-    """Intersecting triangle pairs between two meshes by mathutils' BVH (independent of core.metrics)."""
-    ta = BVHTree.FromPolygons(a[0].tolist(), a[1].tolist(), all_triangles=True)
-    tb = BVHTree.FromPolygons(b[0].tolist(), b[1].tolist(), all_triangles=True)
-    return len(ta.overlap(tb))
 
 
 def longest_edge(mesh) -> float:
@@ -120,15 +114,6 @@ def _edit(obj, how):
     me.update()
 
 
-def _as_its_stack_makes_it(obj):
-    """The garment evaluated with its DeformRT modifier switched off (then on again)."""
-    mod = obj.modifiers["DeformRT"]
-    mod.show_viewport = False
-    plain = viewport_mesh(obj)
-    mod.show_viewport = True
-    return plain
-
-
 @pytest.mark.parametrize("how", ["moved", "deleted", "added"])
 def test_a_garment_edited_after_resolve_is_marked_stale_and_shown_as_fitted(extension, tubes, how):
     body, (shirt, jacket) = tubes
@@ -139,10 +124,10 @@ def test_a_garment_edited_after_resolve_is_marked_stale_and_shown_as_fitted(exte
     bpy.context.view_layer.update()
     stale = staleness.stale_garments(bpy.context.scene)
     assert [g.name for g, _ in stale] == ["Shirt"] and "edited" in stale[0][1]
-    np.testing.assert_array_equal(viewport_mesh(shirt), _as_its_stack_makes_it(shirt))
+    np.testing.assert_array_equal(viewport_mesh(shirt), without_result(shirt))
     rendered = rendered_meshes(bpy.context.scene)["Shirt"][0]
     mw = np.array(shirt.matrix_world)
-    np.testing.assert_allclose(rendered, _as_its_stack_makes_it(shirt) @ mw[:3, :3].T + mw[:3, 3], atol=1e-6)
+    np.testing.assert_allclose(rendered, without_result(shirt) @ mw[:3, :3].T + mw[:3, 3], atol=1e-6)
     # Inspect says so too, and resolving again brings the result back
     bpy.ops.deformrt.inspect_layers()
     assert "out of date, shown as fitted: Shirt" in json.loads(bpy.context.scene.deformrt.last_report)["message"]
@@ -164,7 +149,7 @@ def test_an_edited_mesh_is_passed_through_by_the_result_group_itself(extension, 
         _edit(shirt, how)
         bpy.context.view_layer.update()
         assert staleness.stale_garments(bpy.context.scene) == []
-        np.testing.assert_array_equal(viewport_mesh(shirt), _as_its_stack_makes_it(shirt))
+        np.testing.assert_array_equal(viewport_mesh(shirt), without_result(shirt))
     finally:
         staleness.register()
 

@@ -7,8 +7,9 @@ import json
 import bpy
 import numpy as np
 import pytest
-from mathutils.bvhtree import BVHTree
 from scipy.spatial import cKDTree
+
+from tests.addon.render_capture import overlapping_pairs
 
 
 def sub(ext, path):
@@ -33,11 +34,6 @@ def evaluated(obj):
     return co.reshape(-1, 3) @ mw[:3, :3].T + mw[:3, 3], tris.reshape(-1, 3)
 
 
-def overlapping_pairs(a, b) -> int:
-    """Intersecting triangle pairs between two meshes by mathutils' BVH (independent of core.metrics)."""
-    ta = BVHTree.FromPolygons(a[0].tolist(), a[1].tolist(), all_triangles=True)
-    tb = BVHTree.FromPolygons(b[0].tolist(), b[1].tolist(), all_triangles=True)
-    return len(ta.overlap(tb))
 
 
 def mesh_state(obj):
