@@ -50,6 +50,7 @@ class ResolveSummary:
     probe_by_part: dict = field(default_factory=dict)  # l_s the resolve used, scene units
     alone: list = field(default_factory=list)  # garments near no other, left as they were
     skin_hidden: int = 0  # body faces under cloth left out (Hide Covered Skin)
+    moved_after: list = field(default_factory=list)  # "garment's modifier": moves what was corrected
 
     def message(self) -> str:
         moved = max(self.max_move, default=0.0)
@@ -61,6 +62,9 @@ class ResolveSummary:
         if far:  # the method's known limit: cloth beyond the probe's reach from its body part is not probed
             notes += (f"; {far} garment points lie farther from the body than the probe reaches "
                       "(raise Probe Distance, or move the garments onto the body)")
+        if self.moved_after:  # what renders is moved again after the correction
+            notes += (f"; {', '.join(self.moved_after)} run after DeformRT and move what it corrected (move them "
+                      "above DeformRT and resolve again)")
         return (f"Resolved {len(self.garments)} garments on {self.body} in {self.seconds['total_s']:.2f} s: "
                 f"max move {moved * 1000:.1f} mm, {sum(self.faces_hidden)} faces hidden{skin} "
                 f"(parts: {self.parts_source}){alone}{notes}")
@@ -221,6 +225,9 @@ def read_scene(scene, scheme_name, playing=False):
             raise LayeringInputError(problem)
     for obj in [body, *garments]:  # read as fitted, not through what another field points at
         results.disconnect_foreign(obj)
+        mod = results.result_modifier(obj)
+        if mod is not None:  # read where the result goes: a modifier added after it since runs above it
+            result_stack.place(obj, mod)
     # the body too, up to where its own result (covered skin) goes: a subdivided body is smoothed
     # inside its cage, so cloth clear of the cage is clear of what renders
     with fitted_cages([body, *garments]):
@@ -409,6 +416,7 @@ def finish_resolve(scene, job: ResolveJob, result) -> ResolveSummary:
                              {"read_s": job.read_s, "resolve_s": st["total_s"], "write_s": write_s,
                               "total_s": time.perf_counter() - job.t0}, inward,
                              alone=[g.name for g, t in zip(garments, result.traced, strict=True) if not t],
+                             moved_after=[f"{g.name}'s {m}" for g in garments for m in result_stack.moving_after(g)],
                              skin_hidden=skin_hidden)
     if job.parts_known:
         summary.probe_by_part = dict(zip(get_scheme(job.scheme).parts, st["probe_distance"], strict=True))

@@ -110,6 +110,20 @@ def place(obj, mod) -> bool:
     return True
 
 
+# Modifiers that move vertices where they are: run after the result, they move the corrected
+# garment again, and what the resolve kept apart may cross (a Displace added later lands there).
+# Subdivision and Multires smooth the cage the correction was made on, Solidify is given room
+# (outward_shell); those are where they belong.
+MOVING = frozenset({"DISPLACE", "SMOOTH", "LAPLACIANSMOOTH", "CORRECTIVE_SMOOTH", "CAST", "SIMPLE_DEFORM", "WAVE",
+                    "WARP", "SHRINKWRAP", "HOOK", "LATTICE", "CURVE", "ARMATURE", "MESH_DEFORM", "SURFACE_DEFORM",
+                    "CLOTH", "SOFT_BODY", "OCEAN"})
+
+
+def moving_after(obj) -> list:
+    """Names of the modifiers after the result (after where it goes) that move vertices."""
+    return [m.name for m in after_cut(obj) if m.type in MOVING and (m.show_viewport or m.show_render)]
+
+
 def outward_shell(obj) -> float:
     """How far, in world units, Solidify modifiers after the result grow the corrected garment
     outward (offset 1 grows it all outward, -1, the default, all inward): the resolve leaves

@@ -272,6 +272,11 @@ def on_load(_file):
 def on_render_pre(scene, _depsgraph=None):
     for garment, reason in check_scene(scene):
         print(f"DeformRT: {garment.name} renders as fitted: {reason} since the last resolve (Resolve Layers again)")
+    for garment in scene_roles.garments(scene):
+        if results.data_object(garment) is not None:
+            for name in result_stack.moving_after(garment):
+                print(f"DeformRT: {garment.name}'s {name} runs after DeformRT and moves what it corrected "
+                      "(move it above DeformRT and resolve again)")
 
 
 _HANDLERS = (("depsgraph_update_post", on_depsgraph_update), ("load_post", on_load), ("render_pre", on_render_pre))

@@ -5,6 +5,7 @@ cache path that is a folder or a disk that is too full. And a result that does n
 decided from what the scene is now: a change undone is forgotten."""
 
 import importlib
+import json
 import shutil
 
 import bpy
@@ -284,3 +285,29 @@ def test_whatever_moves_the_vertices_above_the_result_passes_it_through_and_undo
     assert overlapping_pairs(again["Shirt"], again["Jacket"]) == 0
     assert staleness.check_scene(bpy.context.scene) == []
     assert not np.allclose(again["Shirt"][0], shown)
+
+
+def test_a_modifier_that_moves_the_corrected_garment_after_the_result_is_named(extension, tubes, capfd):
+    """A Displace added after a resolve lands below DeformRT (Blender appends it) and moves what was
+    corrected: a render says so; Resolve puts the result after it (it is then resolved with). One
+    after a Subdivision cannot be: the resolve's message names it."""
+    body, (shirt, jacket) = tubes
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    shirt.modifiers.new("Displace", "DISPLACE").strength = 0.004  # 2 mm out: through the jacket here and there
+    assert [m.name for m in shirt.modifiers] == ["DeformRT", "Displace"]
+    capfd.readouterr()
+    rendered_meshes(bpy.context.scene)
+    said = capfd.readouterr()
+    assert "Shirt's Displace runs after DeformRT and moves what it corrected" in said.out + said.err
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    assert [m.name for m in shirt.modifiers] == ["Displace", "DeformRT"]
+    assert "run after DeformRT" not in json.loads(bpy.context.scene.deformrt.last_report)["message"]
+    shown = rendered_meshes(bpy.context.scene)
+    assert overlapping_pairs(shown["Shirt"], shown["Jacket"]) == 0
+    # after a Subdivision (viewport 1, render 2) it stays after the result: named in the message
+    jacket.modifiers.new("Subdivision", "SUBSURF").render_levels = 2
+    jacket.modifiers.new("Wave", "DISPLACE").strength = 0.01
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    assert [m.name for m in jacket.modifiers] == ["DeformRT", "Subdivision", "Wave"]
+    message = json.loads(bpy.context.scene.deformrt.last_report)["message"]
+    assert "Jacket's Wave run after DeformRT and move what it corrected" in message
