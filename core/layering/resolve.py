@@ -176,7 +176,6 @@ def _fit_layers(stack, timings) -> None:
         t1 = time.perf_counter()
         if p.push_behind:
             push_behind(stack, k)
-        _relax(stack, k)
         t2 = time.perf_counter()
         if p.body_guard:
             keep_out_of_body(stack, k)
@@ -186,8 +185,10 @@ def _fit_layers(stack, timings) -> None:
 
 
 def _relax(stack, k) -> None:
-    """Edges of layer k the moves so far pulled apart beyond MAX_STRETCH drawn back (stretch_relax),
-    before the layers under it are fitted to where it ends up."""
+    """Edges of layer k the lift pulled apart beyond MAX_STRETCH drawn back (stretch_relax), before
+    any layer is fitted to it. Only the lift's: drawing together what push and tuck moved draws
+    lower cloth back out where it was pushed in (Fig 4.12: poke-through 0.01% -> 0.13% at 2.5x,
+    0.07% even at 2.9x)."""
     out, drawn = relax_stretch(stack.fitted[k], stack.verts[k], stack.edges[k])
     if drawn:
         stack.moved(k, out)

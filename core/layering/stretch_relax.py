@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-# An edge longer than this many times its fitted length has its ends' moves drawn together.
+# An edge longer than this many times its fitted length after the lift has its ends' moves drawn
+# together (resolve._relax).
 MAX_STRETCH = 2.5
 _ROUNDS = 40
 
