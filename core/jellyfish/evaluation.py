@@ -109,6 +109,10 @@ def _ask_scheduler(address: str, timeout: float) -> None:
         raise RuntimeError(f"no Dask scheduler answered at {address} within {timeout:g} s ({type(err).__name__}"
                            f"{': ' + str(err) if str(err) else ''}): start one ('dask scheduler') or check the "
                            "address") from None
+    except Exception as err:  # noqa: BLE001 - whatever a stranger's reply makes the reader raise
+        # (an HTTP server's reply read as a frame header asks for exabytes: a MemoryError)
+        raise RuntimeError(f"{address} answered but is not a Dask scheduler ({type(err).__name__}): check the "
+                           "address") from None
     if not isinstance(identity, dict) or identity.get("type") != "Scheduler":
         raise RuntimeError(f"{address} answered but is not a Dask scheduler: check the address")
 

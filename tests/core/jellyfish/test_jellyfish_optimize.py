@@ -143,3 +143,38 @@ def test_the_reported_creature_swims_what_was_reported_for_it(seed, generations)
     replay = simulate_cycle(r.creature, CFG, scales=r.scales)
     assert replay.fitness == pytest.approx(r.fitness, rel=1e-9)
     assert replay.path_m == pytest.approx(r.cycle.path_m, rel=1e-9)
+
+
+def test_a_peer_that_answers_garbage_is_refused_with_the_promised_error():
+    """An HTTP server at the address (its reply read as a Dask frame header asks for exabytes):
+    the RuntimeError that says it is not a Dask scheduler, not a MemoryError."""
+    pytest.importorskip("distributed")
+    import socket
+    import threading
+
+    from core.jellyfish.evaluation import Evaluator
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(4)
+    done = threading.Event()
+
+    def answer():
+        server.settimeout(5.0)
+        while not done.is_set():
+            try:
+                conn, _ = server.accept()
+            except OSError:
+                return
+            with conn:
+                conn.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n" * 4)
+
+    thread = threading.Thread(target=answer, daemon=True)
+    thread.start()
+    port = server.getsockname()[1]
+    try:
+        with pytest.raises(RuntimeError, match=f"tcp://127.0.0.1:{port}"):
+            Evaluator(scheduler=f"tcp://127.0.0.1:{port}", connect_timeout=2.0)
+    finally:
+        done.set()
+        server.close()
