@@ -210,7 +210,7 @@ def read_meshes(objs, depsgraph):
 
 
 def _parts_key(body, scheme_name) -> tuple:
-    """What the body's parts are read from: its groups (names), counts and the scheme."""
+    """What the body's parts are read from: its groups (names), vertex count and the scheme."""
     return body.name, len(body.data.vertices), scheme_name, tuple(g.name for g in body.vertex_groups)
 
 
@@ -233,9 +233,9 @@ def read_scene(scene, scheme_name, playing=False):
     with fitted_cages([body, *garments]):
         depsgraph = bpy.context.evaluated_depsgraph_get()
         arrays = read_meshes([body, *garments], depsgraph)
-        key = _parts_key(body, scheme_name)
+        key = (*_parts_key(body, scheme_name), len(arrays[0].vertices))
         kept = _parts_cache.get(key) if playing else None
-        if kept is None or len(kept[0] if kept[0] is not None else arrays[0].vertices) != len(arrays[0].vertices):
+        if kept is None:
             kept = body_parts(body, scheme_name, arrays[0].vertices)
             if playing:
                 _parts_cache.put(key, kept)

@@ -185,7 +185,7 @@ def write(scene, obj, offsets_local, hidden_faces, stats=None, made_for=None, ca
         mod.node_group = group
         blender_versions.set_modifier_input(mod, key, old)
         _remove_unused_groups()
-    data = data_object(obj) or _spare_data(obj)
+    data = data_object(obj) or next(iter(_unused_ours(obj)), None)
     if data is None:
         mesh = bpy.data.meshes.new(f"DeformRT {obj.name}")
         data = bpy.data.objects.new(f"DeformRT {obj.name}", mesh)
@@ -241,13 +241,22 @@ def read_offsets(obj, n_vertices):
     return full
 
 
-def _spare_data(obj):
-    """Data DeformRT made for ``obj`` that no modifier uses any more (the field was set to
-    something else, or the modifier replaced by Copy Modifiers): used again, not duplicated."""
+def _unused_ours(owner=None) -> list:
+    """Data DeformRT made (marked, in its collection) that no modifier uses any more (the field was
+    set to something else, the modifier replaced by Copy Modifiers, or applied by hand); only
+    ``owner``'s when given."""
     coll = bpy.data.collections.get(DATA_COLLECTION)
+    if coll is None:
+        return []
     used = {linked_data(o) for o in bpy.data.objects if o.type == "MESH"}
-    return next((d for d in (coll.objects if coll is not None else ())
-                 if d not in used and _made_by_us(d) and d.get(OWNER_PROPERTY) == obj), None)
+    return [d for d in coll.objects if d not in used and _made_by_us(d) and OWNER_PROPERTY in d
+            and (owner is None or d[OWNER_PROPERTY] == owner)]
+
+
+def _drop_empty_collection() -> None:
+    coll = bpy.data.collections.get(DATA_COLLECTION)
+    if coll is not None and not coll.objects and not coll.children:
+        bpy.data.collections.remove(coll)
 
 
 def _remove_unused_groups():
@@ -265,15 +274,10 @@ def _remove_data(data) -> None:
 def remove_unused_data() -> int:
     """Delete the data DeformRT made that no modifier uses any more (its modifier applied or
     removed by hand); returns how many."""
-    coll = bpy.data.collections.get(DATA_COLLECTION)
-    if coll is None:
-        return 0
-    used = {linked_data(o) for o in bpy.data.objects if o.type == "MESH"}
-    unused = [d for d in coll.objects if d not in used and _made_by_us(d) and OWNER_PROPERTY in d]
+    unused = _unused_ours()
     for data in unused:
         _remove_data(data)
-    if not coll.objects and not coll.children:
-        bpy.data.collections.remove(coll)
+    _drop_empty_collection()
     return len(unused)
 
 
@@ -286,13 +290,11 @@ def clear(obj) -> bool:
     own = data_object(obj)
     for mod in mods:
         obj.modifiers.remove(mod)
-    coll = bpy.data.collections.get(DATA_COLLECTION)
-    spare = [d for d in (coll.objects if coll is not None else ()) if _made_by_us(d) and d.get(OWNER_PROPERTY) == obj]
-    for data in {d for d in [own, *spare] if d is not None}:
-        if not any(linked_data(o) == data for o in bpy.data.objects if o.type == "MESH"):
-            _remove_data(data)
-    if coll is not None and not coll.objects and not coll.children:
-        bpy.data.collections.remove(coll)
+    if own is not None and not any(linked_data(o) == own for o in bpy.data.objects if o.type == "MESH"):
+        _remove_data(own)
+    for data in _unused_ours(obj):
+        _remove_data(data)
+    _drop_empty_collection()
     _remove_unused_groups()
     return True
 

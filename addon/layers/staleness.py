@@ -246,7 +246,7 @@ def touched(scene, depsgraph) -> bool:
     holders = _with_results(scene)
     if not holders:
         return False
-    watched = _watched(scene) | {o for o in holders} | {o.data for o in holders}
+    watched = _watched(scene) | set(holders) | {o.data for o in holders}
     return bool({u.id.original for u in depsgraph.updates} & watched)
 
 

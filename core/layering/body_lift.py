@@ -49,7 +49,6 @@ def lift_off_body(stack, k, distance, held=None) -> np.ndarray:
     out[lifted] += stack.normals[k][lifted] * lift[lifted, None]
     # at the floor when lifted as far as needed; short of it (no room to push in) or beyond it
     clearance[lifted] = np.where(needed > 0, floor, clearance)[lifted] + (lift - needed)[lifted]
-    stack.moved(k, out)
-    stack.rest[k] = out  # what the body guard takes moves back to: the stages' moves, not the lift
+    stack.moved(k, out)  # resolve makes where the lift leaves it the body guard's rest
     stack.moved_by["lift"] += int(lifted.sum())
     return lift

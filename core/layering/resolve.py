@@ -100,8 +100,8 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
         bf = bf[:, ::-1]  # resolved as the body it is: the result is the same either way
     facts = body_facts(bv, bf)
     if previous is not None:
-        facts.carry_radius(getattr(previous, "body_radius", None))
-        facts.carry_junctions(getattr(previous, "body_junctions", None))
+        facts.carry_radius(previous.body_radius)
+        facts.carry_junctions(previous.body_junctions)
     p = LayeringParameters.parse(facts, bv, bf, garr, body_segments, params)
 
     t0 = time.perf_counter()
@@ -112,11 +112,11 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
     stack = LayerStack(facts, bv, garr, prep, p)
     t0 = time.perf_counter()
     lifts = [None] * len(garr)
-    held = getattr(previous, "lifts", None) or [None] * len(garr)
+    held = (previous.lifts if previous is not None else None) or [None] * len(garr)
     for k in stack.active:
         lifts[k] = lift_off_body(stack, k, prep.corr[k].distance, held[k])
         _relax(stack, k)
-        stack.rest[k] = stack.verts[k]  # the body guard takes the stages' moves back to here
+        stack.rest[k] = stack.verts[k]  # what the body guard takes moves back to: the stages' moves, not the lift
     timings["lift_s"] = time.perf_counter() - t0
     _fit_layers(stack, timings)
     t0 = time.perf_counter()
@@ -153,7 +153,7 @@ def _same_garments(previous, garr) -> bool:
 def _held(crossing, previous):
     """Hidden faces with the hold (HIDE_HOLD) over the last frame's, and per face how many frames
     it has not crossed (capped)."""
-    if previous is None or getattr(previous, "frames_clear", None) is None:
+    if previous is None or previous.frames_clear is None:
         return crossing, [np.where(c, 0, HIDE_HOLD + 1).astype(np.int8) for c in crossing]
     removed, clear = [], []
     for now, was, before in zip(crossing, previous.removed_faces, previous.frames_clear, strict=True):

@@ -1,5 +1,5 @@
-"""Relaxing edges the stages pulled apart: where two vertices a millimetre apart take body points
-on opposite sides of something thin (a shoe's welt, a collar's fold), lift and push move them
+"""Relaxing edges the lift pulled apart: where two vertices a millimetre apart take body points
+on opposite sides of something thin (a shoe's welt, a collar's fold), the lift moves them
 along opposite global normals and the edge between them grows several times over. Seen as a
 tear; nothing about the layers' order needs it."""
 
