@@ -6,7 +6,7 @@ import shutil
 import bpy
 
 from ..addon.io import blender_versions
-from ..addon.layers import frame_handler, layer_resolve, report, results, scene_roles
+from ..addon.layers import frame_bake, layer_resolve, report, results, scene_roles
 from .base import BackgroundOperator, DeformRTOperator
 
 
@@ -228,8 +228,13 @@ class DEFORMRT_OT_bake_frames(_NeedsGarments, DeformRTOperator, bpy.types.Operat
     filepath: bpy.props.StringProperty(name="File", subtype="FILE_PATH", default="//deformrt_layers.abc",
                                        options=blender_versions.path_options())
 
+    # set by invoke: the bake asked for in the UI runs frame by frame under a timer (Esc stops it);
+    # a script's call blocks, as a script expects
+    in_ui: bpy.props.BoolProperty(default=False, options={"HIDDEN", "SKIP_SAVE"})
+
     def invoke(self, context, _event):
         self.frame_start, self.frame_end = context.scene.frame_start, context.scene.frame_end
+        self.in_ui = context.window is not None and not bpy.app.background
         return context.window_manager.invoke_props_dialog(self)
 
     def execute(self, context):
@@ -245,68 +250,65 @@ class DEFORMRT_OT_bake_frames(_NeedsGarments, DeformRTOperator, bpy.types.Operat
             self.report({"ERROR"}, "Save the file first or give an absolute path for the cache")
             return {"CANCELLED"}
         path = bpy.path.abspath(self.filepath)
+        frames = range(self.frame_start, self.frame_end + 1)
         try:
-            cache_fits(path, [body, *garments], context.evaluated_depsgraph_get(),
-                       self.frame_end - self.frame_start + 1)
+            cache_fits(path, [body, *garments], context.evaluated_depsgraph_get(), len(frames))
         except ValueError as exc:
             return self.fail(exc)
-        settings = scene.deformrt
-        was_on, frame = settings.resolve_on_frame_change, scene.frame_current
-        selection = [o for o in scene.objects if o.select_get()]
-        # the results shown now go first (switching the handler off clears them): Blender's
-        # Alembic exporter crashes on result objects made before it started. The correspondence
-        # playback found stays, so the cache holds what was shown; else the first frame baked
-        # finds one
-        kept = layer_resolve.kept_correspondence() if was_on else {}
-        frame_handler.switch(scene, False)
-        frame_handler.switch(scene, True)
-        layer_resolve.keep_correspondence(kept)
-        # written beside the target and moved onto it once whole: a stopped or failed bake leaves
-        # no partial cache, and an earlier cache at the path stays as it was
-        partial = (path[:-4] if path.lower().endswith(".abc") else path) + ".deformrt-partial.abc"
-        if os.path.isfile(partial):  # left by a bake that was killed: ours, by its name; never the cache
-            os.remove(partial)
-        stopped, result, failure = False, None, "the Alembic export failed"
+        self._failure = None
+        self._bake = frame_bake.FrameBake(scene, body, garments, frames, path)
+        self._bake.signals.__enter__()
+        if not self.in_ui:
+            while self._bake_step():
+                pass
+            return self._bake_end()
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.001, window=context.window)
+        wm.progress_begin(0, len(frames))
+        wm.modal_handler_add(self)
+        context.workspace.status_text_set(f"DeformRT: resolving {len(frames)} frames to bake (Esc to stop)")
+        return {"RUNNING_MODAL"}
+
+    def _bake_step(self) -> bool:
         try:
-            # the exporter steps the frames; the frame handler resolves each before it is written
-            scene.frame_set(self.frame_start)
-            for o in selection:
-                o.select_set(False)
-            for o in (body, *garments):
-                o.select_set(True)
-            export = bpy.ops.wm.alembic_export
-            try:
-                result = export(**blender_versions.operator_arguments(
-                    export, filepath=partial, start=self.frame_start, end=self.frame_end, selected=True,
-                    visible_objects_only=False, uvs=True, apply_subdiv=True, as_background_job=False))
-            except RuntimeError as exc:
-                failure = f"the Alembic export failed: {exc}"
-            stopped = not settings.resolve_on_frame_change
+            return self._bake.step()
+        except (ValueError, RuntimeError) as exc:
+            self._failure = str(exc)
+            return False
+
+    def _bake_end(self, cancelled=None) -> set:
+        """Write the cache (unless stopped) and put the scene back; one report."""
+        bake = self._bake
+        failure = cancelled or self._failure
+        try:
+            if failure is None:
+                bake.write()
+        except frame_bake.BakeStopped as exc:
+            failure = str(exc)
         finally:
-            # back to the frame shown before with the handler off (changing frames with it on
-            # right after an Alembic export crashes Blender); it corrects again from the next
-            # frame change, with the same correspondence
-            kept = layer_resolve.kept_correspondence()
-            frame_handler.switch(scene, False)
-            for o in (body, *garments):
-                o.select_set(False)
-            for o in selection:
-                o.select_set(True)
-            scene.frame_set(frame)
-            if was_on and not stopped:
-                frame_handler.switch(scene, True)
-                layer_resolve.keep_correspondence(kept)
-        if result != {"FINISHED"} or stopped or not os.path.isfile(partial):
-            if os.path.isfile(partial):
-                os.remove(partial)
-            last = report.read(scene)
-            self.report({"ERROR"}, "Bake stopped, nothing written: " + (
-                (last.message if last is not None else "") if stopped else failure))
+            bake.restore()
+            bake.signals.__exit__(None, None, None)
+        if failure is not None:
+            message = (f"Bake stopped after {bake.done} of {len(bake.frames)} frames, nothing written "
+                       f"(a cache already at the path is as it was): {failure}")
+            bake.signals.pass_on(message)
+            self.report({"ERROR"}, message)
             return {"CANCELLED"}
-        os.replace(partial, path)
-        n = self.frame_end - self.frame_start + 1
-        self.report({"INFO"}, f"Baked {n} frames of {len(garments)} garments to {path}")
+        self.report({"INFO"}, f"Baked {len(bake.frames)} frames of {len(bake.garments)} garments to {bake.path}")
         return {"FINISHED"}
+
+    def modal(self, context, event):
+        if event.type not in ("TIMER", "ESC"):
+            return {"RUNNING_MODAL"}  # no frame changes or edits under the bake
+        more = event.type == "TIMER" and self._bake_step()
+        wm = context.window_manager
+        if more:
+            wm.progress_update(self._bake.done)
+            return {"RUNNING_MODAL"}
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        context.workspace.status_text_set(None)
+        return self._bake_end("Esc" if event.type == "ESC" else None)
 
 
 CLASSES = (DEFORMRT_OT_resolve_layers, DEFORMRT_OT_add_part_probe, DEFORMRT_OT_remove_part_probe,

@@ -2,6 +2,8 @@
 frame bakes when ``scene.deformrt.resolve_on_frame_change`` is on."""
 
 
+from contextlib import contextmanager
+
 import bpy
 from bpy.app.handlers import persistent
 
@@ -10,6 +12,27 @@ from . import layer_resolve, report, result_stack, results, staleness
 
 _busy = False
 _seen = {}  # scene name: resolve_on_frame_change as last acted on
+_replay = None  # while a frame bake writes its cache: (frame: writes, the bake's signals)
+
+
+@contextmanager
+def replaying(kept: dict, signals):
+    """Frame changes write the results ``kept`` for each frame (``results.recording``) instead of
+    resolving; nothing more once ``signals`` caught one."""
+    global _replay
+    _replay = (kept, signals)
+    try:
+        yield
+    finally:
+        _replay = None
+
+
+def _write_kept(scene):
+    kept, signals = _replay
+    if signals.caught:
+        return
+    for obj, arguments in kept.get(scene.frame_current, ()):
+        results.write(scene, obj, *arguments)
 
 
 def switched(scene):
@@ -51,6 +74,9 @@ def on_depsgraph_update(scene, depsgraph):
 @persistent
 def on_frame_change(scene, _depsgraph=None):
     global _busy
+    if _replay is not None:
+        _write_kept(scene)
+        return
     _notice_switch(scene)
     if _busy or not scene.deformrt.resolve_on_frame_change:
         return

@@ -6,6 +6,8 @@ collection holding the correction and what it was made for (``staleness``). The 
 mesh is never written; Clear removes both and the garment renders as fitted.
 """
 
+from contextlib import contextmanager
+
 import bpy
 import numpy as np
 
@@ -20,6 +22,19 @@ FINGERPRINT_PROPERTY = "deformrt_made_for"
 STALE_PROPERTY = "deformrt_stale"
 # On the data object: the garment (an object pointer) DeformRT made it for.
 OWNER_PROPERTY = "deformrt_result_of"
+
+_recorded = None  # while a frame bake resolves: each write's arguments, to be written again
+
+
+@contextmanager
+def recording():
+    """Collect the writes made inside as (garment, arguments) to pass to ``write`` again."""
+    global _recorded
+    _recorded = []
+    try:
+        yield _recorded
+    finally:
+        _recorded = None
 
 
 def result_modifier(obj):
@@ -177,6 +192,10 @@ def write(scene, obj, offsets_local, hidden_faces, stats=None, made_for=None, ca
     updated, the modifier put in its place in the stack. ``made_for`` is the fingerprint of
     what was resolved (``staleness.fingerprint``); ``cage_local``: where the vertices were (object
     space), so the result passes a mesh whose vertices moved since through (``result_nodes``)."""
+    if _recorded is not None:
+        # single precision, as the data mesh stores them
+        _recorded.append((obj, (np.asarray(offsets_local, np.float32), np.array(hidden_faces, bool), stats, made_for,
+                                None if cage_local is None else np.asarray(cage_local, np.float32))))
     group = result_nodes.node_group()
     key = result_nodes.data_socket_id(group)
     mod = result_modifier(obj)

@@ -1,0 +1,164 @@
+"""Bake Frames: every frame of a range is resolved first, one at a time, with what each frame
+writes kept; then Blender's Alembic exporter steps the frames while the frame handler writes the
+kept results again. The long part is ours and stops between frames (Esc in the UI, Ctrl+C or
+SIGTERM headless): a signal only raises a flag, so no handler Blender calls can swallow it. A
+stopped bake writes nothing, leaves an earlier cache at the path as it was, and puts the scene
+back (frame, Resolve on Frame Change, a still resolve shown before)."""
+
+import os
+import signal
+import sys
+
+import bpy
+
+from ..io import blender_versions
+from . import frame_handler, layer_resolve, results
+
+PARTIAL_SUFFIX = ".deformrt-partial.abc"
+
+
+class BakeStopped(RuntimeError):
+    """The bake ended before its cache was written; the message says why."""
+
+
+def partial_path(path: str) -> str:
+    """Where the cache is written before it is whole: ours by its name."""
+    return (path[:-4] if path.lower().endswith(".abc") else path) + PARTIAL_SUFFIX
+
+
+class _Signals:
+    """Ctrl+C and SIGTERM raise a flag for the duration (main thread only; a handler installed
+    by C code, which Python cannot put back, is left alone)."""
+
+    def __init__(self):
+        self.caught = None
+        self._old = {}
+
+    def __enter__(self):
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            old = signal.getsignal(sig)
+            if old is None:
+                continue
+            try:
+                signal.signal(sig, self._catch)
+            except ValueError:  # not the main thread
+                return self
+            self._old[sig] = old
+        return self
+
+    def _catch(self, sig, _frame):
+        self.caught = self.caught or sig
+
+    def __exit__(self, *_exc):
+        for sig, old in self._old.items():
+            signal.signal(sig, old)
+        self._old.clear()
+
+    def pass_on(self, message: str):
+        """After the clean-up: a SIGTERM goes on to do what it was sent for (end the process),
+        saying first what it stopped (the operator's report would never be printed)."""
+        if self.caught == signal.SIGTERM:
+            print(f"DeformRT: {message}", file=sys.stderr, flush=True)
+            signal.raise_signal(signal.SIGTERM)
+
+
+class FrameBake:
+    """One bake of ``frames`` (a range) of the scene's tagged figure to ``path``. ``step``
+    resolves the next frame (True while frames are left), ``write`` exports, ``restore``
+    puts the scene back; ``abandon`` is ``restore`` for a bake that will not be written."""
+
+    def __init__(self, scene, body, garments, frames, path):
+        self.scene, self.body, self.garments = scene, body, garments
+        self.frames, self.path = frames, path
+        self.partial = partial_path(path)
+        self._left = iter(frames)
+        self.done = 0
+        self.kept = {}  # frame: the results.write calls it made
+        self.signals = _Signals()
+        self.was_on = scene.deformrt.resolve_on_frame_change
+        self.frame = scene.frame_current
+        self.shown = any(results.data_object(o) is not None for o in (body, *garments))
+        correspondence = layer_resolve.kept_correspondence() if self.was_on else {}
+        # the results shown now go (switching the handler off clears them); the correspondence
+        # playback found stays, so the cache holds what was shown
+        frame_handler.switch(scene, False)
+        layer_resolve.keep_correspondence(correspondence)
+
+    @property
+    def stop_reason(self) -> str | None:
+        caught = self.signals.caught
+        return None if caught is None else f"stopped by {signal.Signals(caught).name}"
+
+    def step(self) -> bool:
+        """Resolve the next frame; False when none is left. Raises ValueError (a frame that
+        cannot be resolved) or BakeStopped (a signal came)."""
+        frame = next(self._left, None)
+        if frame is None:
+            return False
+        self.scene.frame_set(frame)
+        with results.recording() as writes:
+            frame_handler.correct_frame(self.scene)
+        self.kept[frame] = writes
+        self.done += 1
+        if self.stop_reason:
+            raise BakeStopped(self.stop_reason)
+        return True
+
+    def write(self) -> None:
+        """Export the kept frames to a file beside the path, then move it onto the path."""
+        scene, objs = self.scene, (self.body, *self.garments)
+        if os.path.isfile(self.partial):  # left by a bake that was killed: ours, by its name; never the cache
+            os.remove(self.partial)
+        frame_handler.switch(scene, False)  # Blender's exporter crashes on result objects made before it
+        selection = [o for o in scene.objects if o.select_get()]
+        failure = None
+        try:
+            with frame_handler.replaying(self.kept, self.signals):
+                scene.frame_set(self.frames[0])
+                for o in selection:
+                    o.select_set(False)
+                for o in objs:
+                    o.select_set(True)
+                failure = _export(self.partial, self.frames[0], self.frames[-1])
+        finally:
+            for o in objs:
+                o.select_set(False)
+            for o in selection:
+                o.select_set(True)
+        if failure is None and self.stop_reason:
+            failure = self.stop_reason
+        if failure is None and not os.path.isfile(self.partial):
+            failure = "the Alembic export wrote no file"
+        if failure is not None:
+            if os.path.isfile(self.partial):
+                os.remove(self.partial)
+            raise BakeStopped(failure)
+        os.replace(self.partial, self.path)
+
+    def restore(self) -> None:
+        """The frame shown before, and what was shown on it: Resolve on Frame Change as it was
+        (resolving this frame now), or the still resolve made again."""
+        scene = self.scene
+        correspondence = layer_resolve.kept_correspondence()
+        frame_handler.switch(scene, False)  # changing frames with it on right after an export crashes Blender
+        scene.frame_set(self.frame)
+        if self.was_on:
+            frame_handler.switch(scene, True)
+            layer_resolve.keep_correspondence(correspondence)
+            frame_handler.on_frame_change(scene)
+        elif self.shown:
+            layer_resolve.resolve_scene(scene)
+
+    abandon = restore
+
+
+def _export(path, start, end) -> str | None:
+    """Blender's Alembic export of the selected objects; None, or why it failed."""
+    export = bpy.ops.wm.alembic_export
+    try:
+        done = export(**blender_versions.operator_arguments(
+            export, filepath=path, start=start, end=end, selected=True, visible_objects_only=False, uvs=True,
+            apply_subdiv=True, as_background_job=False))
+    except RuntimeError as exc:
+        return f"the Alembic export failed: {exc}"
+    return None if done == {"FINISHED"} else "the Alembic export was cancelled"
