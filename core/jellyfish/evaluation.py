@@ -10,14 +10,14 @@ registers the package's parents as empty namespace stubs, by source passed to ``
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
-import math
 import multiprocessing
 import os
 import sys
 import time
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+from .scheduler_probe import ask_scheduler
 
 _CORE = __name__.rpartition(".")[0]  # "core", or e.g. "bl_ext.user_default.deformrt.core"
 _BOOTSTRAP = f"""
@@ -86,37 +86,6 @@ def _main_hidden():
             main.__dict__.update(saved)
 
 
-async def _identity(address, timeout):
-    from distributed.core import rpc
-
-    remote = rpc(address, timeout=timeout)
-    try:
-        return await asyncio.wait_for(remote.identity(), timeout)
-    finally:
-        await remote.close_rpc()
-
-
-def _ask_scheduler(address: str, timeout: float) -> None:
-    """Raise a clear RuntimeError unless a Dask scheduler answers at ``address`` within
-    ``timeout`` seconds. Asked on a loop of its own, which ends with the question: a Client made
-    for an address nothing answers at would wait far longer (a port that is not a scheduler: for
-    ever) and leave its IO thread behind."""
-    if not (math.isfinite(timeout) and timeout > 0):
-        raise ValueError(f"connect_timeout must be a number of seconds > 0, got {timeout}")
-    try:
-        identity = asyncio.run(asyncio.wait_for(_identity(address, timeout), timeout))
-    except (TimeoutError, OSError, ValueError) as err:
-        raise RuntimeError(f"no Dask scheduler answered at {address} within {timeout:g} s ({type(err).__name__}"
-                           f"{': ' + str(err) if str(err) else ''}): start one ('dask scheduler') or check the "
-                           "address") from None
-    except Exception as err:  # noqa: BLE001 - whatever a stranger's reply makes the reader raise
-        # (an HTTP server's reply read as a frame header asks for exabytes: a MemoryError)
-        raise RuntimeError(f"{address} answered but is not a Dask scheduler ({type(err).__name__}): check the "
-                           "address") from None
-    if not isinstance(identity, dict) or identity.get("type") != "Scheduler":
-        raise RuntimeError(f"{address} answered but is not a Dask scheduler: check the address")
-
-
 class Evaluator:
     """``map(fn, items)`` in order. ``workers=1`` runs in this process; more (default: every
     core) use a process pool kept for the evaluator's life; ``scheduler="tcp://host:port"``
@@ -135,7 +104,7 @@ class Evaluator:
             if isinstance(scheduler, Client):
                 self._client = scheduler
             else:
-                _ask_scheduler(str(scheduler), connect_timeout)
+                ask_scheduler(str(scheduler), connect_timeout)
                 self._client, self._own_client = Client(scheduler, timeout=connect_timeout), True
             # jobs name core functions by module, so workers must see this package's files (a
             # LocalCluster, or machines sharing its storage); the stubs make its name importable

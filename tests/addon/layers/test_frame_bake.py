@@ -11,7 +11,7 @@ import bpy
 import numpy as np
 import pytest
 
-from tests.addon.layers.test_resolve_ops import evaluated, sub, tubes  # noqa: F401 (a fixture)
+from tests.addon.layers.test_resolve_ops import evaluated, sub
 
 
 def _sending_on_the_third(monkeypatch, handler, sig):

@@ -30,11 +30,6 @@ def own_state(obj):
     return co.round(9).tobytes(), len(obj.data.polygons), obj.data.name
 
 
-@pytest.fixture
-def tubes(extension, clean_scene):
-    return sub(extension, "sample_scenes.tubes").build(seed=0, resolution=48)
-
-
 def _field(extension, obj):
     results, nodes = sub(extension, "addon.layers.results"), sub(extension, "addon.layers.result_nodes")
     mod = results.result_modifier(obj)

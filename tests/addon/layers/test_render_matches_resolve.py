@@ -33,11 +33,6 @@ def add_stack(obj, stack):
     render_capture.add_stack(obj, stack, solidify_m=0.002, bevel_m=0.002)  # cloth a couple of mm thick
 
 
-@pytest.fixture
-def tubes(extension, clean_scene):
-    return sub(extension, "sample_scenes.tubes").build(seed=0, resolution=48)
-
-
 # A Solidify after Subdivision thickens the corrected jacket inward, behind its own surface: the shirt
 # crosses that inner shell where it lies within the thickness, hidden (poke-through is what shows).
 # Grown outward, the shirt's shell is given room, except where the tubes' jacket comes within 6 mm of

@@ -43,12 +43,6 @@ def mesh_state(obj):
     return co, len(obj.data.polygons), [m.name for m in obj.modifiers]
 
 
-@pytest.fixture
-def tubes(extension, clean_scene):
-    body, garments = sub(extension, "sample_scenes.tubes").build(seed=0, resolution=48)
-    return body, garments
-
-
 def test_resolve_leaves_nothing_crossing_in_what_renders(extension, tubes):
     body, (shirt, jacket) = tubes
     before = overlapping_pairs(evaluated(shirt), evaluated(jacket))

@@ -178,3 +178,103 @@ def test_a_peer_that_answers_garbage_is_refused_with_the_promised_error():
     finally:
         done.set()
         server.close()
+
+
+def _serve_once(reply: bytes):
+    """A peer at a local port that answers every connection with ``reply``; (port, stop)."""
+    import socket
+    import threading
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(4)
+
+    def answer():
+        while True:
+            try:
+                conn, _ = server.accept()
+            except OSError:
+                return
+            with conn:
+                conn.sendall(reply)
+                conn.settimeout(2.0)
+                try:
+                    conn.recv(1 << 16)
+                except OSError:
+                    pass
+
+    threading.Thread(target=answer, daemon=True).start()
+    return server.getsockname()[1], server.close
+
+
+def _dask_message(frames: list) -> bytes:
+    import struct
+
+    prelude = struct.pack(f"Q{len(frames)}Q", len(frames), *map(len, frames))
+    return struct.pack("Q", len(prelude) + sum(map(len, frames))) + prelude + b"".join(frames)
+
+
+def test_a_peer_sending_a_pickle_never_gets_it_unpickled(tmp_path):
+    """A peer that speaks Dask's wire format and sends a pickled object in its handshake and
+    reply (Dask's reader would unpickle it: code run in the client before the peer is known to
+    be a scheduler): refused, and the pickle never ran."""
+    msgpack = pytest.importorskip("msgpack")
+    pytest.importorskip("distributed")
+    import pickle
+
+    from core.jellyfish.evaluation import Evaluator
+
+    marker = tmp_path / "ran"
+
+    class Payload:
+        def __reduce__(self):
+            return (open, (str(marker), "w"))
+
+    payload = pickle.dumps(Payload())
+    # Dask's own layout for a pickled value: a "__Pickled__" marker in the header naming the frames
+    header = msgpack.packb({"type": {"__Pickled__": 1}}, use_bin_type=True)
+    sub = msgpack.packb({"pickled-obj": payload, "num-sub-frames": 0}, use_bin_type=True)
+    port, stop = _serve_once(_dask_message([header, sub]) * 2)
+    try:
+        with pytest.raises(RuntimeError, match=f"tcp://127.0.0.1:{port} answered but is not a Dask scheduler"):
+            Evaluator(scheduler=f"tcp://127.0.0.1:{port}", connect_timeout=2.0)
+    finally:
+        stop()
+    assert not marker.exists()
+
+
+def test_a_peer_announcing_a_huge_reply_is_refused_without_allocating_it():
+    """A reply that announces 1.5 GB (a peer can make Dask's reader allocate what it claims): refused
+    by its announced size, the client's memory peak a few megabytes."""
+    import struct
+    import tracemalloc
+
+    pytest.importorskip("distributed")
+    from core.jellyfish.evaluation import Evaluator
+
+    port, stop = _serve_once(struct.pack("Q", 1_500_000_000) + b"\0" * 4096)
+    tracemalloc.start()
+    try:
+        with pytest.raises(RuntimeError, match="not a Dask scheduler \\(a message of 1500000000 bytes"):
+            Evaluator(scheduler=f"tcp://127.0.0.1:{port}", connect_timeout=2.0)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+        stop()
+    assert peak < 8 << 20
+
+
+def test_the_probe_knows_a_real_scheduler_and_a_real_worker_apart():
+    """Against Dask itself (an independent speaker of the protocol): a scheduler passes, a worker's
+    address (a Dask server, but not a scheduler) is refused."""
+    distributed = pytest.importorskip("distributed")
+    from core.jellyfish.scheduler_probe import ask_scheduler
+
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp",
+                                  dashboard_address=None) as lc:
+        ask_scheduler(lc.scheduler_address, 5.0)
+        worker = next(iter(lc.scheduler_info["workers"]))
+        with pytest.raises(RuntimeError, match="answered but is not a Dask scheduler"):
+            ask_scheduler(worker, 5.0)
+    with pytest.raises(ValueError, match="tcp://host:port"):
+        ask_scheduler("inproc://x", 1.0)
