@@ -462,7 +462,7 @@ def auto_segment(scene) -> str:
         raise LayeringInputError("Pick a part scheme (5 or 13 parts) to segment by")
     scheme = get_scheme(settings.scheme)
     body, garments = layered_objects(scene)
-    with fitted_cages(garments):
+    with fitted_cages([body, *garments]):  # the body's own result (the covered skin left out) too
         depsgraph = bpy.context.evaluated_depsgraph_get()
         arrays = read_meshes([body, *garments], depsgraph)
         parts, source = body_parts(body, settings.scheme, arrays[0].vertices, painted_groups=False)

@@ -256,6 +256,24 @@ def test_a_parts_probe_distance_can_be_set_in_the_panel(extension, tubes):
     assert json.loads(settings.last_report)["max_move"] == pytest.approx(default["max_move"])
 
 
+def test_auto_segment_on_a_resolved_scene_reads_the_body_under_its_own_result(extension, clean_scene):
+    """With Hide Covered Skin the body carries DeformRT's own result (faces left out): Auto-Segment
+    used to refuse it as a modifier that changes the vertex count and tell the user to apply it
+    (which would destroy the result). It segments as on the unresolved figure."""
+    dressed = sub(extension, "sample_scenes.dressed")
+    body, _, garments = dressed.fig_4_13()
+    assert bpy.ops.deformrt.auto_segment() == {"FINISHED"}
+    fresh = {o.name: {vg.name: _group_members(o, vg.name) for vg in o.vertex_groups if vg.name.startswith("DRT_")}
+             for o in (body, *garments)}
+    bpy.context.scene.deformrt.hide_covered_skin = True
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    assert len(evaluated(body)[0]) < len(body.data.vertices)  # the covered skin is left out
+    assert bpy.ops.deformrt.auto_segment() == {"FINISHED"}
+    again = {o.name: {vg.name: _group_members(o, vg.name) for vg in o.vertex_groups if vg.name.startswith("DRT_")}
+             for o in (body, *garments)}
+    assert again == fresh
+
+
 def test_a_resolve_dropped_before_it_is_written_changes_nothing(extension, tubes):
     # what Esc does to the modal resolve: the core result is computed but never written
     body, garments = tubes
