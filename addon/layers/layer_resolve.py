@@ -18,7 +18,7 @@ from ...core.layering import metrics
 from ...core.layering.covered_skin import covered_faces
 from ...core.layering.resolve import resolve_layers
 from ...core.layering.segmentation import get_scheme, part_of_group, segments_from_groups
-from ..io import mesh_io
+from ..io import mesh_io, scene_units
 from . import result_stack, results, scene_roles, staleness
 from .report import LayersReport
 
@@ -51,6 +51,7 @@ class ResolveSummary:
     alone: list = field(default_factory=list)  # garments near no other, left as they were
     skin_hidden: int = 0  # body faces under cloth left out (Hide Covered Skin)
     moved_after: list = field(default_factory=list)  # "garment's modifier": moves what was corrected
+    length: object = lambda v: f"{v * 1000:.1f} mm"  # a length in the scene's units (scene_units)
 
     def message(self) -> str:
         moved = max(self.max_move, default=0.0)
@@ -66,7 +67,7 @@ class ResolveSummary:
             notes += (f"; {', '.join(self.moved_after)} run after DeformRT and move what it corrected (move them "
                       "above DeformRT and resolve again)")
         return (f"Resolved {len(self.garments)} garments on {self.body} in {self.seconds['total_s']:.2f} s: "
-                f"max move {moved * 1000:.1f} mm, {sum(self.faces_hidden)} faces hidden{skin} "
+                f"max move {self.length(moved)}, {sum(self.faces_hidden)} faces hidden{skin} "
                 f"(parts: {self.parts_source}){alone}{notes}")
 
     def report(self) -> LayersReport:
@@ -417,7 +418,7 @@ def finish_resolve(scene, job: ResolveJob, result) -> ResolveSummary:
                               "total_s": time.perf_counter() - job.t0}, inward,
                              alone=[g.name for g, t in zip(garments, result.traced, strict=True) if not t],
                              moved_after=[f"{g.name}'s {m}" for g in garments for m in result_stack.moving_after(g)],
-                             skin_hidden=skin_hidden)
+                             skin_hidden=skin_hidden, length=scene_units.formatter(scene))
     if job.parts_known:
         summary.probe_by_part = dict(zip(get_scheme(job.scheme).parts, st["probe_distance"], strict=True))
     return summary
@@ -520,7 +521,8 @@ def inspect_scene(scene) -> LayersReport:
         stretch += f" on {worst[0]} (99% of its edges {worst[1]:.2f}x or less)"
     report.message = (f"Crossing edges {report.crossings_before:,} -> {report.crossings_after:,}, "
                       f"poke-through {100 * report.poke_through_before:.2f}% -> "
-                      f"{100 * report.poke_through_after:.2f}%, max move {1000 * report.max_move_m:.1f} mm, {stretch}")
+                      f"{100 * report.poke_through_after:.2f}%, "
+                      f"max move {scene_units.length(scene, report.max_move_m)}, {stretch}")
     if stale:
         report.message += f"; out of date, shown as fitted: {', '.join(g.name for g, _ in stale)}"
     return report

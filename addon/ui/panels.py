@@ -5,6 +5,7 @@ import textwrap
 
 import bpy
 
+from ..io import scene_units
 from ..jellyfish import animal as jellyfish
 from ..layers import report, scene_roles, staleness
 
@@ -102,7 +103,7 @@ class DEFORMRT_PT_resolve(bpy.types.Panel):
         row.operator("deformrt.resolve_layers", icon="MOD_CLOTH")
         row.operator("deformrt.inspect_layers", icon="VIEWZOOM")
         layout.prop(settings, "resolve_on_frame_change")
-        lines = report_lines(report.read(context.scene))
+        lines = report_lines(report.read(context.scene), scene_units.formatter(context.scene))
         if lines:
             box = layout.box().column(align=True)
             width = max(24, int(context.region.width / 7)) if context.region is not None else 60
@@ -141,16 +142,17 @@ class DEFORMRT_PT_jellyfish(bpy.types.Panel):
         layout.operator("deformrt.bake_jellyfish", icon="ANIM")
 
 
-def report_lines(last) -> list:
-    """What the panel says of a LayersReport (None: nothing); a report whose entries are not what
-    this version writes (a crafted or damaged file) is said to be damaged, not raised on every redraw."""
+def report_lines(last, length=lambda v: f"{100 * v:.0f} cm") -> list:
+    """What the panel says of a LayersReport (None: nothing), lengths by ``length`` (the scene's
+    units); a report whose entries are not what this version writes (a crafted or damaged file)
+    is said to be damaged, not raised on every redraw."""
     try:
-        return _report_lines(last)
+        return _report_lines(last, length)
     except (TypeError, ValueError, AttributeError):
         return [report.DAMAGED.message]
 
 
-def _report_lines(last) -> list:
+def _report_lines(last, length) -> list:
     if last is None:
         return []
     lines = [last.message]
@@ -160,7 +162,7 @@ def _report_lines(last) -> list:
         # the thesis' known limit (4.6): cloth far from its body part is not probed
         lines.append(f"{last.far_from_body} garment points lie farther from the body than the probe reaches")
     if last.probe_by_part:
-        lines.append("Probe reach: " + ", ".join(f"{p.replace('_', ' ')} {100 * d:.0f} cm"
+        lines.append("Probe reach: " + ", ".join(f"{p.replace('_', ' ')} {length(float(d))}"
                                                  for p, d in last.probe_by_part.items()))
     for a, b, n in last.still_crossing:
         # the thesis' known limits (4.6): what the method cannot untangle

@@ -274,6 +274,33 @@ def test_auto_segment_on_a_resolved_scene_reads_the_body_under_its_own_result(ex
     assert again == fresh
 
 
+_UNIT_M = {"µm": 1e-6, "mm": 1e-3, "cm": 1e-2, "m": 1.0, "km": 1e3, '"': 0.0254, "'": 0.3048, "thou": 2.54e-5}
+
+
+def _length_m(text):
+    """A length as Blender writes it ("12.3 mm", "0.48\"", "3.1'") in metres."""
+    import re
+
+    number, unit = re.fullmatch(r"([0-9.]+)\s*(µm|mm|cm|km|m|thou|\"|')", text.strip()).groups()
+    return float(number) * _UNIT_M[unit]
+
+
+@pytest.mark.parametrize("system, scale", [("METRIC", 1.0), ("METRIC", 0.001), ("IMPERIAL", 1.0)])
+def test_lengths_in_messages_are_in_the_scenes_units(extension, tubes, system, scale):
+    """A scene modelled in millimetres (Unit Scale 0.001) used to read a move of 12 units as
+    "12000 mm"; the resolve and Inspect now say lengths as the scene's own fields do."""
+    units = bpy.context.scene.unit_settings
+    units.system, units.scale_length = system, scale
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    report = json.loads(bpy.context.scene.deformrt.last_report)
+    said = report["message"].split("max move ")[1].split(",")[0]
+    assert _length_m(said) == pytest.approx(max(report["max_move"]) * scale, rel=0.01)
+    bpy.ops.deformrt.inspect_layers()
+    report = json.loads(bpy.context.scene.deformrt.last_report)
+    said = report["message"].split("max move ")[1].split(",")[0]
+    assert _length_m(said) == pytest.approx(report["max_move_m"] * scale, rel=0.01)
+
+
 def test_a_resolve_dropped_before_it_is_written_changes_nothing(extension, tubes):
     # what Esc does to the modal resolve: the core result is computed but never written
     body, garments = tubes
