@@ -75,7 +75,8 @@ class DEFORMRT_OT_tag_makehuman(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        if context.scene is None or not any(scene_roles.mpfb_type(o) == "Basemesh" for o in context.scene.objects):
+        if context.scene is None or not any(scene_roles.mpfb_type(o) in scene_roles.BODY_TYPES
+                                                 for o in context.scene.objects):
             cls.poll_message_set("No MPFB2 (MakeHuman) character in the scene")
             return False
         return True

@@ -40,6 +40,9 @@ MPFB_TYPE_KEYS = ("MPFB_GEN_object_type", "MhObjectType")
 MPFB_Z_DEPTH_KEYS = ("MC_z_depth", "MPFB_GEN_z_depth")
 
 
+BODY_TYPES = ("Basemesh", "Proxymeshes")  # MPFB2's object types a character's body can be
+
+
 def mpfb_type(obj) -> str:
     """MPFB2's object type ("Basemesh", "Proxymeshes", "Clothes", "Eyes", ...) or ""."""
     for key in MPFB_TYPE_KEYS:
@@ -70,7 +73,7 @@ def mpfb_character(scene, near=None):
     every piece has one, else by kind of name (underwear < shirts, trousers < sweaters < jackets
     < coats). Eyes, eyebrows, hair and teeth are not garments."""
     meshes = [o for o in scene.objects if o.type == "MESH" and mpfb_type(o) and not _baked(o)]
-    roots = {_character_root(o) for o in meshes if mpfb_type(o) == "Basemesh"}
+    roots = {_character_root(o) for o in meshes if mpfb_type(o) in BODY_TYPES}
     if near is not None and _character_root(near) in roots:
         roots = {_character_root(near)}
     if len(roots) != 1:
@@ -80,7 +83,8 @@ def mpfb_character(scene, near=None):
     kind = {o: mpfb_type(o) for o in own}
     proxies = [o for o in own if kind[o] == "Proxymeshes" and not o.hide_render]
     bases = [o for o in own if kind[o] == "Basemesh"]
-    body = proxies[0] if proxies else bases[0]
+    # a character whose base mesh was deleted (MPFB2 allows it once a proxy is fitted) is its proxy
+    body = (proxies or bases or [o for o in own if kind[o] == "Proxymeshes"])[0]
     clothes = [o for o in own if kind[o] == "Clothes"]
     depths = [_z_depth(o) for o in clothes]
     if all(d is not None for d in depths):

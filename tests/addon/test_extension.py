@@ -257,6 +257,11 @@ def test_one_click_tags_a_makehuman_character_in_its_z_depth_order(clean_scene):
     proxy = _mpfb(add_mesh("Anna.proxy"), "Proxymeshes", parent=rig)
     assert bpy.ops.deformrt.tag_makehuman() == {"FINISHED"}
     assert proxy.deformrt.role == "BODY" and body.deformrt.role == "NONE"
+    # its base mesh deleted, the proxy alone is the character (it used to be "no character")
+    bpy.data.objects.remove(body)
+    proxy.deformrt.role = "NONE"
+    assert bpy.ops.deformrt.tag_makehuman() == {"FINISHED"}
+    assert proxy.deformrt.role == "BODY" and [o.deformrt.layer for o in (lining, shirt, outfit)] == [1, 2, 3]
 
 
 def test_without_z_depths_the_clothes_go_by_kind_and_two_characters_need_a_choice(clean_scene, capfd):
