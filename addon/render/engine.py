@@ -89,6 +89,13 @@ class FrameTracer:
         self.lights = lights(depsgraph, samples)
         self.max_depth = self._bounded("Max Bounces", settings.render_max_depth, 0, MAX_BOUNCES)
         self.layered = settings.render_layered
+        # what this tracer does not do, said rather than silently left out
+        if scene.render.use_motion_blur:
+            self.warnings = [*self.warnings, "Motion Blur is on but this engine renders each frame sharp "
+                                             "(render with Cycles or Eevee for motion blur)"]
+        if cam.dof.use_dof:
+            self.warnings = [*self.warnings, f"{scene.camera.name}'s Depth of Field is on but this engine renders "
+                                             "everything in focus (render with Cycles or Eevee for it)"]
 
     def _bounded(self, name, value, low, high) -> int:
         """A setting as the panel allows it; one out of range (a file made so) is named and clamped."""

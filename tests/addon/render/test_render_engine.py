@@ -845,6 +845,20 @@ def test_persistent_data_keeps_the_ray_scenes_while_the_meshes_stay_the_same(ext
     assert len(made) == 3 and len(reading.PERSISTENT) == 0
 
 
+def test_motion_blur_and_depth_of_field_it_does_not_render_are_said(studio, clean_scene, tmp_path, capsys):
+    """Motion Blur and a camera's Depth of Field were left out without a word: the frame is the
+    same sharp one, and the render says so."""
+    scene = _engine(clean_scene)
+    _white_floor(scene)
+    sharp = _render(studio, scene, tmp_path, size=(8, 8))
+    capsys.readouterr()
+    scene.render.use_motion_blur, scene.camera.data.dof.use_dof = True, True
+    np.testing.assert_array_equal(_render(studio, scene, tmp_path, size=(8, 8)), sharp)
+    said = capsys.readouterr()
+    assert "Motion Blur is on but this engine renders each frame sharp" in said.out + said.err
+    assert f"{scene.camera.name}'s Depth of Field is on" in said.out + said.err
+
+
 def test_settings_a_file_stores_out_of_range_are_named_and_clamped(studio, clean_scene, tmp_path, capsys):
     """Area Light Samples 0 and Max Bounces -1 stored in a file (the panel allows 1-32 and 0-16):
     the frame renders as with the nearest allowed values and the render says which it changed;
