@@ -19,6 +19,7 @@ from .body_facts import body_facts
 from .body_guard import keep_out_of_body
 from .body_lift import lift_off_body
 from .boundary_pass import tuck_under_hems
+from .frame_coherence import History, eased, held_hidden
 from .garment_prep import GarmentPrep
 from .hidden_faces import crossing_faces
 from .layer_stack import LayerStack
@@ -27,11 +28,6 @@ from .probes import probe_reach
 from .push_behind import push_behind
 from .result import LayeringResult
 from .stretch_relax import relax_stretch
-
-# A face hidden because it crossed a higher layer stays hidden this many frames after it last
-# crossed (with ``previous``): a face that crosses on and off as the figure moves would otherwise
-# blink for single frames, which the eye catches at once. It is the layer behind that stays hidden.
-HIDE_HOLD = 3
 
 
 def resolve_layers(body, garments, body_segments=None, previous=None, **params) -> LayeringResult:
@@ -119,9 +115,18 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
         stack.rest[k] = stack.verts[k]  # what the body guard takes moves back to: the stages' moves, not the lift
     timings["lift_s"] = time.perf_counter() - t0
     _fit_layers(stack, timings)
+    n_eased = 0
+    if previous is not None and previous.history is not None:  # no jolt from the last frames
+        for k in stack.active:
+            smoothed = eased(stack.verts[k], garr[k][0], k, previous.history, p.offset)
+            if smoothed is not None:
+                n_eased += int((smoothed != stack.verts[k]).any(axis=1).sum())
+                stack.moved(k, smoothed)
     t0 = time.perf_counter()
     removed = _hidden_faces(stack) if p.remove_hidden else [np.zeros(len(f), dtype=bool) for f in stack.faces]
-    removed, clear = _held(removed, previous if p.remove_hidden else None)
+    last = previous if p.remove_hidden else None
+    removed, clear, shown = held_hidden(removed, last and last.removed_faces, last and last.frames_clear,
+                                        last and last.frames_shown)
     timings["hidden_faces_s"] = time.perf_counter() - t0
 
     out, moved = [], []
@@ -132,10 +137,12 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
         out.append(trimesh.Trimesh(stack.verts[i], kept_faces, process=False, validate=False))
     timings["total_s"] = time.perf_counter() - t_start
     result = LayeringResult(out, moved, removed, prep.traced, prep.normals, prep.corr, prep.vseg, prep.skirts,
-                            {**_stats(stack, prep, reach, removed, timings), "body_inside_out": flipped},
+                            {**_stats(stack, prep, reach, removed, timings), "body_inside_out": flipped,
+                             "vertices_eased": n_eased},
                             prep.complete if len(prep.active) < len(garr) else None)
-    result.frames_clear = clear
+    result.frames_clear, result.frames_shown = clear, shown
     result.lifts = lifts
+    result.history = History(moved, [v for v, _ in garr], previous.history if previous is not None else None)
     result.body_radius = facts.radius_found
     result.body_junctions = facts.junctions_found()
     return result
@@ -148,19 +155,6 @@ def _same_garments(previous, garr) -> bool:
     moved, removed = previous.moved, previous.removed_faces
     return len(moved) == len(garr) and all(len(m) == len(v) and len(r) == len(f)
                                            for m, r, (v, f) in zip(moved, removed, garr, strict=True))
-
-
-def _held(crossing, previous):
-    """Hidden faces with the hold (HIDE_HOLD) over the last frame's, and per face how many frames
-    it has not crossed (capped)."""
-    if previous is None or previous.frames_clear is None:
-        return crossing, [np.where(c, 0, HIDE_HOLD + 1).astype(np.int8) for c in crossing]
-    removed, clear = [], []
-    for now, was, before in zip(crossing, previous.removed_faces, previous.frames_clear, strict=True):
-        since = np.where(now, 0, np.minimum(before.astype(np.int16) + 1, HIDE_HOLD + 1)).astype(np.int8)
-        removed.append(now | (was & (since <= HIDE_HOLD)))
-        clear.append(since)
-    return removed, clear
 
 
 def _fit_layers(stack, timings) -> None:

@@ -29,9 +29,11 @@ class LayeringResult:
         self.stats = stats
         self._complete = complete  # fills the untraced garments' entries in place
         self.frames_clear = None  # per garment and face, frames since it last crossed (resolve's hold)
+        self.frames_shown = None  # per garment and face, frames it has been shown (capped at 2)
         self.body_radius = None  # the body's radii the probes took, for the next frame
         self.body_junctions = None  # where the body's parts meet (BodyFacts.junctions_found), the same
         self.lifts = None  # per garment, how far each vertex was lifted off the body (body_lift)
+        self.history = None  # frame_coherence.History: what the next frame eases from
 
     def _completed(self):
         if self._complete is not None:

@@ -1,0 +1,87 @@
+"""Frame to frame (playback, frame bakes): what a frame resolved after the last one keeps of it, so
+nothing a viewer sees changes faster than the figure itself moves.
+
+Each frame resolved on its own is right, but its discrete choices (which body point a garment
+point takes, whether the body guard takes a push back, which edges the stretch relaxation draws
+in) flip from one frame to the next, and the correction d = resolved - posed jumps: on MakeHuman's
+ramps 25-52 mm of second difference in a frame at a few vertices, where the cloth itself
+accelerates 2.5 mm (p99). Two rules keep it as smooth as the cloth:
+
+- **Hidden faces held**: a face hidden because it crossed stays hidden HIDE_HOLD frames after it
+  last crossed, so a face crossing every other frame does not blink; a face shown again stays
+  shown two frames at least.
+- **The correction's acceleration bounded**: from the last two frames' corrections the next is
+  predicted (constant velocity); the new one may differ from the prediction by JERK offsets plus
+  MOTION_SHARE of how much the cloth itself accelerated at that vertex. A flip between two valid
+  corrections is spread over frames; a fast move (a kick, a jump cut in a capture) still gets the
+  correction it needs, because the bound grows with the cloth's own acceleration. Measured: with
+  no share of the cloth's acceleration, ramps played three times faster show 2.3% poke-through
+  (the correction lags behind what the motion needs); a share of 0.25 keeps them at 0.00%.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry.vectors import norms
+
+HIDE_HOLD = 3
+JERK = 0.5  # offsets d per frame per frame (about 1 mm on a person)
+MOTION_SHARE = 0.15
+
+
+class History:
+    """What the next frame needs of this one and the one before, per garment: the correction and
+    the posed vertices it was made for (arrays only: no chain of earlier results is kept)."""
+
+    def __init__(self, moved, posed, earlier=None):
+        self.moved, self.posed = moved, posed
+        self.moved_before = earlier.moved if earlier is not None else None
+        self.posed_before = earlier.posed if earlier is not None else None
+
+
+def held_hidden(crossing, previous_removed, previous_clear, previous_shown):
+    """Hidden faces with the hold over the last frame's; per face how many frames it has not
+    crossed and how many it has been shown (both capped). ``previous_*`` None on a first frame.
+
+    Neither state lasts a single frame: a face stays hidden HIDE_HOLD frames after it last
+    crossed, and a face shown again after being hidden stays shown one more frame even if it
+    crosses then (hidden, shown, hidden is a blink too; the hold hides it the frame after)."""
+    if previous_clear is None:
+        shown = [np.where(c, 0, 1).astype(np.int8) for c in crossing]
+        return crossing, [np.where(c, 0, HIDE_HOLD + 1).astype(np.int8) for c in crossing], shown
+    removed, clear, shown = [], [], []
+    olds = previous_shown if previous_shown is not None else [None] * len(crossing)
+    for now, was, before, run in zip(crossing, previous_removed, previous_clear, olds, strict=True):
+        since = np.where(now, 0, np.minimum(before.astype(np.int16) + 1, HIDE_HOLD + 1)).astype(np.int8)
+        hide = now | (was & (since <= HIDE_HOLD))
+        if run is not None:
+            hide &= ~(~was & (run == 1))  # shown since the last frame only: shown once more
+        removed.append(hide)
+        clear.append(since)
+        shown.append(np.where(hide, 0, np.minimum(run + 1 if run is not None else 1, 2)).astype(np.int8))
+    return removed, clear, shown
+
+
+def eased(vertices, posed, k, history: History, offset: float):
+    """Layer k's resolved ``vertices`` (posed at ``posed``) with the correction's change from the
+    constant-velocity prediction bounded (module docstring); None where nothing is bounded."""
+    d1, x1 = history.moved[k], history.posed[k]
+    d2 = history.moved_before[k] if history.moved_before is not None else d1
+    x2 = history.posed_before[k] if history.posed_before is not None else x1
+    predicted = 2.0 * d1 - d2
+    change = vertices - posed - predicted
+    size = norms(change)
+    bound = JERK * offset + MOTION_SHARE * norms(posed - 2.0 * x1 + x2)
+    over = size > bound
+    if not over.any():
+        return None
+    d = predicted[over] + change[over] * (bound[over] / size[over])[:, None]
+    # a trend carried on must not overshoot: never further than this frame's own correction or the
+    # last one (the prediction runs on past a correction that has stopped growing)
+    most = np.maximum(norms(vertices[over] - posed[over]), norms(d1[over]))
+    length = norms(d)
+    d *= np.minimum(1.0, most / np.maximum(length, 1e-30))[:, None]
+    out = vertices.copy()
+    out[over] = posed[over] + d
+    return out
