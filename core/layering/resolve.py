@@ -27,7 +27,7 @@ from .parameters import LayeringParameters, check_known, inside_out, read_meshes
 from .probes import probe_reach
 from .push_behind import push_behind
 from .result import LayeringResult
-from .stretch_relax import relax_stretch
+from .stretch_relax import MAX_TORN, relax_stretch, shorten_torn
 
 
 def resolve_layers(body, garments, body_segments=None, previous=None, **params) -> LayeringResult:
@@ -115,6 +115,11 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
         stack.rest[k] = stack.verts[k]  # what the body guard takes moves back to: the stages' moves, not the lift
     timings["lift_s"] = time.perf_counter() - t0
     _fit_layers(stack, timings)
+    for k in stack.active:  # what push and tuck tore (ends pushed along diverging normals), drawn in
+        out, drawn = shorten_torn(stack.fitted[k], stack.verts[k], stack.edges[k], MAX_TORN)
+        if drawn:
+            stack.moved(k, out)
+            stack.moved_by["relaxed"] += drawn
     n_eased = 0
     if previous is not None and previous.history is not None:  # no jolt from the last frames
         for k in stack.active:

@@ -1,10 +1,12 @@
 """Edges the stages pull apart: drawn back under MAX_STRETCH, nothing else touched."""
 
 import numpy as np
+import pytest
 import trimesh
 
+from core.layering import resolve as resolve_module
 from core.layering import resolve_layers, stretch_relax
-from core.layering.stretch_relax import MAX_STRETCH, relax_stretch
+from core.layering.stretch_relax import MAX_STRETCH, MAX_TORN, relax_stretch, shorten_torn
 from tests.core.layered_cases import mesh
 
 
@@ -46,9 +48,38 @@ def test_cloth_wrapped_round_something_thin_is_lifted_without_tearing_its_rim(mo
     body, garments = _wrapped_plate()
     edges = trimesh.Trimesh(garments[0].vertices, garments[0].faces, process=False).edges_unique
     monkeypatch.setattr(stretch_relax, "MAX_STRETCH", np.inf)
+    monkeypatch.setattr(resolve_module, "MAX_TORN", np.inf)
     torn = resolve_layers(body, garments)
     assert _stretch(garments[0].vertices, torn.garments[0].vertices, edges).max() > 3.0  # the case is real
     monkeypatch.undo()
     res = resolve_layers(body, garments)
     assert _stretch(garments[0].vertices, res.garments[0].vertices, edges).max() <= MAX_STRETCH + 1e-6
     assert res.stats["vertices_relaxed"] > 0
+
+
+def test_a_torn_edge_is_shortened_along_itself_and_no_end_goes_back_the_way_it_was_pushed():
+    """Two ends pushed along opposite normals (a fold between two body parts): drawing their moves
+    to the mean would undo both pushes; shortening moves each end along the edge only, to
+    MAX_TORN times its length, and edges away from it stay as they were."""
+    rng = np.random.default_rng(1)
+    v0 = rng.random((60, 3))
+    # a chain 30-31-32 and single edges elsewhere
+    edges = np.array([[2 * i, 2 * i + 1] for i in range(15)] + [[30, 31], [31, 32]] + [[2 * i, 2 * i + 1]
+                                                                                         for i in range(17, 30)])
+    pushed = v0.copy()
+    normals = rng.normal(size=(60, 3))
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    pushed[[0, 1]] -= 2.0 * normals[[0, 1]]  # pushed in along diverging normals: torn
+    pushed[30] -= 5.0 * normals[30]
+    assert (_stretch(v0, pushed, edges[[0, 15]]) > MAX_TORN).all()  # (0, 1) and (30, 31) torn
+    out, drawn = shorten_torn(v0, pushed, edges, MAX_TORN)
+    assert (_stretch(v0, out, edges) <= MAX_TORN * (1 + 1e-6)).all()
+    touched = np.flatnonzero((out != pushed).any(axis=1))
+    assert drawn == len(touched) and set(touched) <= {0, 1, 30, 31, 32}
+    # the edge torn alone: its ends move towards each other along it to exactly MAX_TORN, the middle stays
+    along = (pushed[1] - pushed[0]) / np.linalg.norm(pushed[1] - pushed[0])
+    np.testing.assert_allclose((out[0] + out[1]) / 2, (pushed[0] + pushed[1]) / 2, atol=1e-12)
+    for end in (0, 1):
+        shift = out[end] - pushed[end]
+        np.testing.assert_allclose(shift, along * (shift @ along), atol=1e-12)
+    assert _stretch(v0, out, edges[:1])[0] == pytest.approx(MAX_TORN, rel=1e-9)
