@@ -339,10 +339,11 @@ def prepare_resolve(scene, reuse_correspondence=False) -> ResolveJob:
     last = _last_frame.get(key) if reuse_correspondence else None
     if last is not None and abs(scene.frame_current - last[0]) == 1:  # the frame next to it: playback
         params["previous"] = last[1]
-    made_for = [staleness.fingerprint(g, body) for g in garments]
+    prints = {}  # the body's read once
+    made_for = [staleness.fingerprint(g, body, prints) for g in garments]
     return ResolveJob(body, garments, arrays, params, source, key, reuse_correspondence,
                       time.perf_counter() - t0, t0, settings.scheme, parts is not None, made_for,
-                      settings.hide_covered_skin, staleness.fingerprint(body, body))
+                      settings.hide_covered_skin, staleness.fingerprint(body, body, prints))
 
 
 def compute_resolve(job: ResolveJob):

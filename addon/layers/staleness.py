@@ -107,15 +107,21 @@ def _object_print(obj, mods) -> dict:
             "modifiers": _modifiers_digest(mods)}
 
 
-def fingerprint(garment, body) -> str:
+def fingerprint(garment, body, prints=None) -> str:
     """What a garment's result is made for now: its mesh, shape keys, the modifiers above the
-    result, where it sits on the body, and the body's own (JSON, kept on the result's data)."""
+    result, where it sits on the body, and the body's own (JSON, kept on the result's data).
+    ``prints``: a dict kept over one resolve's calls, so the body is read once, not per garment."""
+    prints = {} if prints is None else prints
     placed = None
     if _still(garment) and _still(body):
         relative = np.linalg.inv(np.array(body.matrix_world)) @ np.array(garment.matrix_world)
         placed = relative[:3].ravel().tolist()
-    return json.dumps({"garment": _object_print(garment, result_stack.before_result(garment)),
-                       "body": _object_print(body, result_stack.user_modifiers(body)), "placed": placed})
+    for obj, mods in ((garment, result_stack.before_result), (body, result_stack.user_modifiers)):
+        key = (obj.name, mods.__name__)
+        if key not in prints:
+            prints[key] = _object_print(obj, mods(obj))
+    return json.dumps({"garment": prints[(garment.name, "before_result")],
+                       "body": prints[(body.name, "user_modifiers")], "placed": placed})
 
 
 def _differences(then: dict, now: dict, garment, body) -> str | None:

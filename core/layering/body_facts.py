@@ -158,18 +158,24 @@ class BodyFacts:
         """``part_junctions`` of this body under ``segment``, kept for the next call."""
         return self._junctions_of(segment)[0]
 
-    def junction_distance(self, segment):
-        """Per body vertex, the distance to the nearest junction of its own part (inf: its part has
-        none): with the triangle inequality, a lower bound on any point's distance to them."""
+    def junction_distance(self, segment, at):
+        """For body vertices ``at``, the distance to the nearest junction of their own part (inf:
+        their part has none): with the triangle inequality, a lower bound on any point's distance
+        to them. Found for the vertices asked only (a garment's nearest body corners: a third of
+        a figure's), each kept for the next ask."""
         found = self._junctions_of(segment)
         if found[1] is None:
+            found[1] = np.full(len(self.vertices), np.nan)
+        out = found[1]
+        unknown = np.unique(at[np.isnan(out[at])])
+        if len(unknown):
             pos, own, _ = found[0]
-            out = np.full(len(self.vertices), np.inf)
-            for part in np.unique(own):
-                mine = np.flatnonzero(segment == part)
-                out[mine] = cKDTree(pos[own == part]).query(rows(self.vertices, mine))[0]
-            found[1] = out
-        return found[1]
+            parts = segment[unknown]
+            for part in np.unique(parts):
+                mine = unknown[parts == part]
+                ends = pos[own == part]
+                out[mine] = cKDTree(ends).query(rows(self.vertices, mine))[0] if len(ends) else np.inf
+        return out[at]
 
     def _junctions_of(self, segment):
         key = digest(segment)

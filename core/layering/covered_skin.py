@@ -28,16 +28,21 @@ def covered_faces(body_vertices, body_faces, garments, reach_out, reach_in, marg
     offsets = np.cumsum([0] + [len(v) for v, _ in garments])
     cloth = RayScene(np.vstack([v for v, _ in garments]),
                      np.vstack([f + o for (_, f), o in zip(garments, offsets[:-1], strict=True)]))
-    a, b, c = (bv[bf[:, k]] for k in range(3))
-    points = np.vstack([bv, (a + b + c) / 3.0])
-    normals = np.vstack([vertex_normals(bv, bf), unit(cross(b - a, c - a))])
-    ok = np.linalg.norm(normals, axis=1) > 0
-    over = np.zeros(len(points), dtype=bool)
     # from a little inside the skin outward: cloth inside it by up to reach_in counts too
-    start = points[ok] - normals[ok] * reach_in
-    over[ok] = cloth.occluded(start, normals[ok], max_dist=float(reach_out) + reach_in)
+    span = float(reach_out) + reach_in
+
+    def clothed(points, normals):
+        ok = np.linalg.norm(normals, axis=1) > 0
+        over = np.zeros(len(points), dtype=bool)
+        over[ok] = cloth.occluded(points[ok] - normals[ok] * reach_in, normals[ok], max_dist=span)
+        return over
+
+    covered = clothed(bv, vertex_normals(bv, bf))[bf].all(axis=1)
+    # a face's centre is asked only when its corners are all under cloth (else it is kept anyway)
+    ask = np.flatnonzero(covered)
+    a, b, c = (bv[bf[ask, k]] for k in range(3))
+    covered[ask] = clothed((a + b + c) / 3.0, unit(cross(b - a, c - a)))
     n_v = len(bv)
-    covered = over[bf].all(axis=1) & over[n_v:]
     if margin > 0 and not covered.all():
         topo = topology_of(bf, n_v)
         e = topo.edges

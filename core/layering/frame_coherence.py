@@ -48,7 +48,7 @@ def held_hidden(crossing, previous_removed, previous_clear, previous_shown):
     crossed, and a face shown again after being hidden stays shown one more frame even if it
     crosses then (hidden, shown, hidden is a blink too; the hold hides it the frame after)."""
     if previous_clear is None:
-        shown = [np.where(c, 0, 1).astype(np.int8) for c in crossing]
+        shown = [np.where(c, 0, 2).astype(np.int8) for c in crossing]  # shown on a first frame: not just now
         return crossing, [np.where(c, 0, HIDE_HOLD + 1).astype(np.int8) for c in crossing], shown
     removed, clear, shown = [], [], []
     olds = previous_shown if previous_shown is not None else [None] * len(crossing)
@@ -59,7 +59,7 @@ def held_hidden(crossing, previous_removed, previous_clear, previous_shown):
             hide &= ~(~was & (run == 1))  # shown since the last frame only: shown once more
         removed.append(hide)
         clear.append(since)
-        shown.append(np.where(hide, 0, np.minimum(run + 1 if run is not None else 1, 2)).astype(np.int8))
+        shown.append(np.where(hide, 0, np.minimum(run + 1 if run is not None else 2, 2)).astype(np.int8))
     return removed, clear, shown
 
 

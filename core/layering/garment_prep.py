@@ -202,7 +202,7 @@ class GarmentPrep:
         if len(self.junctions[0]) and self.given_segments[i] is None and len(v):
             # from the corner whose part the vertex took: no junction of that part is nearer than
             # the corner's own nearest less the corner's distance (the others are asked)
-            lower = self.body.junction_distance(body_seg)[corner] - norms(v - rows(bv, corner))
+            lower = self.body.junction_distance(body_seg, corner) - norms(v - rows(bv, corner))
             lower[s != body_seg[corner]] = 0.0
             border = border_segment(v, c.distance, s, self.junctions, self.margin, lower)
         far = int((c.distance > lv).sum()) if len(v) else 0

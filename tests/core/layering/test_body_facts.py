@@ -58,8 +58,13 @@ def test_junction_distance_is_each_vertex_s_nearest_junction_of_its_own_part_by_
     facts = body_facts(v, f)
     # three parts by height, and one part (3) with no junction at all: a lone band of ids
     seg = np.digitize(v[:, 2], np.quantile(v[:, 2], [1 / 3, 2 / 3])).astype(np.int64)
+    rng = np.random.default_rng(2)
     for s in (seg, np.where(seg == 2, 3, seg)):
-        got = facts.junction_distance(s)
+        # asked a few vertices first (with repeats), then all: the kept ones agree with the fresh ones
+        some = rng.integers(0, len(v), 50)
+        first = facts.junction_distance(s, some)
+        got = facts.junction_distance(s, np.arange(len(v)))
+        np.testing.assert_array_equal(first, got[some])
         pos, own, _ = facts.junctions(s)
         want = np.full(len(v), np.inf)
         for i in range(len(v)):

@@ -240,5 +240,5 @@ def test_no_face_is_hidden_or_shown_for_a_single_frame():
             if hidden_before is False and shown_run == 1:
                 hide = False
             assert out[t][face] == hide, (face, t)
-            shown_run = 0 if hide else min(shown_run + 1, 2)
+            shown_run = 0 if hide else (min(shown_run + 1, 2) if t else 2)  # shown from the start: not "just"
             hidden_before = hide
