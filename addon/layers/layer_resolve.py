@@ -334,11 +334,14 @@ def prepare_resolve(scene, reuse_correspondence=False) -> ResolveJob:
     if any(n is not None for n in g_normals):
         params["global_normals"] = g_normals
     key = _topology_key([body, *garments], arrays)
-    if reuse_correspondence and key in _correspondence_cache:
-        params["correspondence"] = _correspondence_cache.get(key)
     last = _last_frame.get(key) if reuse_correspondence else None
     if last is not None and abs(scene.frame_current - last[0]) == 1:  # the frame next to it: playback
         params["previous"] = last[1]
+        # body points carried from the last frame; the kept ones fill in for a garment it did not trace
+        if key in _correspondence_cache:
+            params["correspondence"] = _correspondence_cache.get(key)
+    # after a jump (or on the first frame) the body is searched afresh: a frame looks the same
+    # whichever frame one came from, and a bake of a range holds what playing it shows
     prints = {}  # the body's read once
     made_for = [staleness.fingerprint(g, body, prints) for g in garments]
     return ResolveJob(body, garments, arrays, params, source, key, reuse_correspondence,
@@ -428,8 +431,9 @@ def finish_resolve(scene, job: ResolveJob, result) -> ResolveSummary:
 def resolve_scene(scene, progress=None, reuse_correspondence=False) -> ResolveSummary:
     """Resolve the scene's tagged garments and show the result on them (non-destructively).
 
-    With ``reuse_correspondence`` (playback, frame bakes) the garment-to-body correspondence
-    of the first such call is kept and reused while the meshes keep their topology."""
+    With ``reuse_correspondence`` (playback, frame bakes) a frame next to the last one resolved
+    starts from it: its body points carried through the motion, its hidden faces held, its
+    correction eased (core frame_coherence); any other frame is resolved afresh."""
     step = progress or (lambda _k: None)
     job = prepare_resolve(scene, reuse_correspondence)
     step(1)
