@@ -4,16 +4,21 @@ Fetches exactly the wheels blender_manifest.toml lists (pinned names, cached in
 ./wheels), then runs the `build --split-platforms` and `validate` commands of
 blender_ext.py, the tool the bpy package ships inside Blender's extension add-on.
 
-    python .ci/build.py            # every platform in the manifest
-    python .ci/build.py --check    # only report which wheels are missing
+    python .ci/build.py                  # every platform in the manifest
+    python .ci/build.py --this-platform  # only this machine's zip (its wheels only: about 100 MB)
+    python .ci/build.py --check          # only report which wheels are missing
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib.util
+import platform
+import re
+import shutil
 import subprocess
 import sys
+import tempfile
 import tomllib
 from pathlib import Path
 
@@ -59,13 +64,47 @@ def fetch_wheels(manifest: dict, check_only: bool) -> list[str]:
     return []
 
 
+# a wheel's platform tag -> the manifest's platform it serves ("any" wheels serve every one)
+_WHEEL_PLATFORM = {"linux-x64": ("linux", "x86_64"), "windows-x64": ("win_amd64",),
+                   "macos-arm64": ("macosx_", "arm64")}
+_SKIPPED = shutil.ignore_patterns(".git", ".venv", ".venv-blender", "dist", "wheels", "out", "__pycache__",
+                                  ".pytest_cache", ".ruff_cache")
+
+
+def this_platform() -> str:
+    """This machine as the manifest names platforms (linux-x64, windows-x64, macos-arm64)."""
+    system = {"linux": "linux", "win32": "windows", "darwin": "macos"}.get(sys.platform, sys.platform)
+    arch = "arm64" if platform.machine().lower() in ("arm64", "aarch64") else "x64"
+    return f"{system}-{arch}"
+
+
+def serves(wheel: str, plat: str) -> bool:
+    tag = wheel[: -len(".whl")].rsplit("-", 1)[-1]
+    return tag == "any" or all(part in tag for part in _WHEEL_PLATFORM[plat])
+
+
+def one_platform_manifest(text: str, plat: str, wheels: list[str]) -> str:
+    """The manifest's text with ``platforms`` and ``wheels`` cut to one platform."""
+    text = re.sub(r"^platforms\s*=\s*\[[^\]]*\]", f'platforms = ["{plat}"]', text, count=1, flags=re.M)
+    listed = ",\n".join(f'  "{w}"' for w in wheels)
+    return re.sub(r"^wheels\s*=\s*\[[^\]]*\]", f"wheels = [\n{listed},\n]", text, count=1, flags=re.M)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--output-dir", default=str(ROOT / "dist"))
     ap.add_argument("--check", action="store_true", help="list missing wheels and exit")
+    ap.add_argument("--this-platform", action="store_true", help="build only this machine's zip")
     args = ap.parse_args(argv)
 
-    manifest = tomllib.loads((ROOT / "blender_manifest.toml").read_text())
+    text = (ROOT / "blender_manifest.toml").read_text()
+    manifest = tomllib.loads(text)
+    if args.this_platform:
+        plat = this_platform()
+        if plat not in manifest["platforms"]:
+            sys.exit(f"build: this machine ({plat}) is not one of the manifest's platforms {manifest['platforms']}")
+        manifest["wheels"] = [w for w in manifest["wheels"] if serves(Path(w).name, plat)]
+        manifest["platforms"] = [plat]
     missing = fetch_wheels(manifest, args.check)
     if args.check:
         print("\n".join(missing) or "all wheels present")
@@ -73,19 +112,28 @@ def main(argv: list[str] | None = None) -> int:
 
     out = Path(args.output_dir)
     out.mkdir(parents=True, exist_ok=True)
-    for old in out.glob(f"{manifest['id']}-{manifest['version']}-*.zip"):
-        old.unlink()
+    for plat in manifest["platforms"]:  # Blender names a platform's zip with an underscore: linux_x64
+        (out / f"{manifest['id']}-{manifest['version']}-{plat.replace('-', '_')}.zip").unlink(missing_ok=True)
     tool = blender_ext_tool()
-    subprocess.run(
-        [sys.executable, str(tool), "build", "--source-dir", str(ROOT), "--output-dir", str(out), "--split-platforms"],
-        check=True,
-    )
-    zips = sorted(out.glob(f"{manifest['id']}-{manifest['version']}-*.zip"))
-    if len(zips) != len(manifest["platforms"]):
+    with tempfile.TemporaryDirectory(prefix="deformrt-build-") as tmp:
+        source = ROOT
+        if args.this_platform:  # a copy of the sources whose manifest names this platform and its wheels
+            source = Path(tmp) / "src"
+            shutil.copytree(ROOT, source, ignore=_SKIPPED)
+            (source / "wheels").mkdir()
+            for w in manifest["wheels"]:
+                shutil.copy2(ROOT / w, source / w)
+            (source / "blender_manifest.toml").write_text(
+                one_platform_manifest(text, manifest["platforms"][0], manifest["wheels"]))
+        subprocess.run([sys.executable, str(tool), "build", "--source-dir", str(source), "--output-dir", str(out),
+                        "--split-platforms"], check=True)
+    zips = [out / f"{manifest['id']}-{manifest['version']}-{p.replace('-', '_')}.zip" for p in manifest["platforms"]]
+    if not all(z.is_file() for z in zips):
         sys.exit(f"build: expected {len(manifest['platforms'])} zips, found {[z.name for z in zips]}")
     for z in zips:
         subprocess.run([sys.executable, str(tool), "validate", str(z)], check=True)
-        print(f"build: {z.name} {z.stat().st_size / 1e6:.1f} MB, valid")
+        print(f"build: {z} {z.stat().st_size / 1e6:.1f} MB, valid: install it from Preferences > Get Extensions >"
+              " Install from Disk")
     return 0
 
 

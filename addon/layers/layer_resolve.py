@@ -61,7 +61,7 @@ class ResolveSummary:
                  "out" if self.stats.get("body_inside_out") else "")
         far = self.stats.get("vertices_far_from_body", 0)
         if far:  # the method's known limit: cloth beyond the probe's reach from its body part is not probed
-            notes += (f"; {far} garment points lie farther from the body than the probe reaches "
+            notes += (f"; {far} garment points beyond the probe's reach still showed through and were hidden "
                       "(raise Probe Distance, or move the garments onto the body)")
         if self.moved_after:  # what renders is moved again after the correction
             notes += (f"; {', '.join(self.moved_after)} run after DeformRT and move what it corrected (move them "

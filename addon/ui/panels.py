@@ -160,7 +160,7 @@ def _report_lines(last, length) -> list:
         lines.append("Skirts: " + ", ".join(last.skirts))
     if last.far_from_body:
         # the thesis' known limit (4.6): cloth far from its body part is not probed
-        lines.append(f"{last.far_from_body} garment points lie farther from the body than the probe reaches")
+        lines.append(f"{last.far_from_body} garment points beyond the probe's reach still showed through")
     if last.probe_by_part:
         lines.append("Probe reach: " + ", ".join(f"{p.replace('_', ' ')} {length(float(d))}"
                                                  for p, d in last.probe_by_part.items()))

@@ -207,6 +207,21 @@ def _hidden_faces(stack) -> list:
     return removed
 
 
+def _far_and_hidden(stack, prep, removed) -> int:
+    """Vertices of lower layers farther from the body than their probe reaches that lie on a
+    face the resolve had to hide: where the method's known limit (an unprobed point cannot be
+    pushed behind what is over it) showed. Loose cloth beyond the reach that nothing crosses, and
+    the outermost layer (it sends no probe), are no concern."""
+    count = 0
+    for i in stack.active[:-1]:
+        far = prep.corr[i].distance > stack.probe_len[i]
+        if far.any() and removed[i].any():
+            on_hidden = np.zeros(len(far), dtype=bool)
+            on_hidden[stack.faces[i][removed[i]].ravel()] = True
+            count += int((far & on_hidden).sum())
+    return count
+
+
 def _stats(stack, prep, reach, removed, timings) -> dict:
     p, active = stack.params, stack.active
     return {
@@ -231,7 +246,8 @@ def _stats(stack, prep, reach, removed, timings) -> dict:
         "vertices_kept_out_of_body": stack.backed_off,
         "vertices_relaxed": stack.moved_by["relaxed"],
         "faces_removed": int(sum(r.sum() for r in removed)),
-        "vertices_far_from_body": prep.far,
+        "vertices_beyond_probe": prep.far,
+        "vertices_far_from_body": _far_and_hidden(stack, prep, removed),
         "vertices_on_part_borders": int(sum((stack.vseg2[i][:, 1] >= 0).sum() for i in active)),
         "scenes_built": stack.scenes_built(),
         "scenes_kept": stack.scenes_kept(),

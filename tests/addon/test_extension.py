@@ -204,6 +204,11 @@ def test_cli_from_plain_python_runs_the_installed_extension(extension, tmp_path)
     assert (tmp_path / "before.png").stat().st_size > 1000
     table = (tmp_path / "metrics.md").read_text()
     assert "| Body | body | 0 |" in table
+    # what an artist wants first: poke-through before and after, in plain words
+    headline = [line for line in table.splitlines() if line.strip()][1]
+    assert headline.startswith("**Poke-through:") and "before" in headline and "after" in headline
+    for internal in ("deformrt_part", "correspondence", "push-behind", "_s |", "counted in the rows"):
+        assert internal not in table, internal
 
 
 def test_garments_tagged_together_are_ordered_by_kind(clean_scene):
@@ -300,3 +305,60 @@ def test_tooltips_are_one_plain_sentence(extension):
                 continue
             text = prop.description
             assert text and "\n" not in text and not any(j in text for j in jargon), (prop.identifier, text)
+
+
+_INSTALL = """
+import bpy, sys
+assert bpy.ops.extensions.package_install_files(repo="user_default", filepath=sys.argv[1],
+                                                 enable_on_install=True) == {"FINISHED"}
+"""
+# what the README tells a pipeline to put at the top of its script: an extension installed once
+# is enabled in each new Blender process (enabling is a preference, not saved by a script)
+_PIPELINE = """
+import bpy
+bpy.ops.preferences.addon_enable(module="bl_ext.user_default.deformrt")
+import importlib
+importlib.import_module("bl_ext.user_default.deformrt.sample_scenes.tubes").build(seed=0, resolution=24)
+print("RESOLVE", bpy.ops.deformrt.resolve_layers())
+"""
+
+
+def test_installed_once_a_headless_pipeline_enables_it_in_each_new_process(extension_zip, tmp_path):
+    """The README's recipe for `blender -b` and bpy pipelines, run as two processes sharing one
+    Blender user folder: the zip installed in the first; the second enables it by its module name
+    and resolves."""
+    import os
+
+    env = {**os.environ, "BLENDER_USER_RESOURCES": str(tmp_path / "user")}
+    install, pipeline = tmp_path / "install.py", tmp_path / "pipeline.py"
+    install.write_text(_INSTALL)
+    pipeline.write_text(_PIPELINE)
+    first = subprocess.run([sys.executable, str(install), str(extension_zip)], env=env, capture_output=True,
+                           text=True, timeout=300)
+    assert first.returncode == 0, first.stdout + first.stderr
+    second = subprocess.run([sys.executable, str(pipeline)], env=env, capture_output=True, text=True, timeout=300)
+    assert second.returncode == 0 and "RESOLVE {'FINISHED'}" in second.stdout, second.stdout + second.stderr
+
+
+def test_this_platforms_build_bundles_what_blenders_own_split_gives_that_platform(extension_zip):
+    """`.ci/build.py --this-platform` picks each platform's wheels by their tags; the reference is
+    what Blender's extension tool itself put in each platform's zip of the full build."""
+    import importlib.util
+    import tomllib
+    import zipfile
+
+    root = extension_zip.parent.parent
+    spec = importlib.util.spec_from_file_location("ci_build", root / ".ci" / "build.py")
+    build = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(build)
+    text = (root / "blender_manifest.toml").read_text()
+    manifest = tomllib.loads(text)
+    for plat in manifest["platforms"]:
+        picked = [w for w in manifest["wheels"] if build.serves(w.rsplit("/", 1)[-1], plat)]
+        made = extension_zip.parent / f"{manifest['id']}-{manifest['version']}-{plat.replace('-', '_')}.zip"
+        with zipfile.ZipFile(made) as z:
+            bundled = {n.rsplit("/", 1)[-1] for n in z.namelist() if n.endswith(".whl")}
+        assert {w.rsplit("/", 1)[-1] for w in picked} == bundled, plat
+        # and the one-platform manifest it builds from names just those
+        cut = tomllib.loads(build.one_platform_manifest(text, plat, picked))
+        assert cut["platforms"] == [plat] and cut["wheels"] == picked

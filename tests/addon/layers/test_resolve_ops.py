@@ -419,7 +419,7 @@ def test_garments_far_from_the_body_are_named_in_the_report(extension, tubes):
         g.location.x += 0.6  # off the body, still round each other
     assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
     message = json.loads(bpy.context.scene.deformrt.last_report)["message"]
-    assert "garment points lie farther from the body than the probe reaches" in message
+    assert "garment points beyond the probe's reach still showed through and were hidden" in message
 
 
 def test_linked_garments_are_refused_by_name_and_nothing_is_added(extension, tubes, tmp_path):
