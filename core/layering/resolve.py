@@ -24,7 +24,7 @@ from .garment_prep import GarmentPrep
 from .hidden_faces import crossing_faces
 from .layer_stack import LayerStack
 from .parameters import LayeringParameters, check_known, inside_out, read_meshes
-from .probes import probe_reach
+from .probes import probe_reach, widened
 from .push_behind import push_behind
 from .result import LayeringResult
 from .stretch_relax import MAX_TORN, relax_stretch, shorten_torn
@@ -103,6 +103,7 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
     t0 = time.perf_counter()
     reach = probe_reach(facts, p)
     prep = GarmentPrep(facts, garr, p, reach)
+    reach = widened(reach, prep, p, p.gap)
     timings["correspondence_s"] = time.perf_counter() - t0
 
     stack = LayerStack(facts, bv, garr, prep, p)
