@@ -121,17 +121,44 @@ def store_stroke(bell, result, config):
         "period": config.period, "particles": config.particles, "fluid": config.fluid})
 
 
+# Optimize Stroke's Resolution allows 20-400 particles a side (an odd count rounded up); a stroke
+# read from a file with more would make Bake Swimming allocate gigabytes (30,000: 6.2 GB in 15 s)
+PARTICLES = (20, 400)
+
+
 def stroke_of(bell):
     """(creature, the config it was found with, True) stored on the bell, or the default
-    creature on a coarse lattice and False when nothing was optimised yet."""
+    creature on a coarse lattice and False when nothing was optimised yet. A stored stroke the
+    panel could not have made (a damaged or crafted file) raises ValueError naming the bell."""
     if PROP_STROKE in bell:
-        s = json.loads(bell[PROP_STROKE])
-        creature = Creature(np.array(s["controls"]), np.array(s["destinations"]), s["contraction"])
-        # strokes stored before the water of revolution were found in the planar water
-        return creature, default_config(particles=s["particles"], period=s["period"],
-                                        fluid=s.get("fluid", "planar")), True
+        try:
+            s = json.loads(bell[PROP_STROKE])
+            particles = s["particles"]
+            if not isinstance(particles, int) or not PARTICLES[0] <= particles <= PARTICLES[1]:
+                raise ValueError(f"{particles!r} particles a side, outside {PARTICLES[0]}-{PARTICLES[1]}")
+            controls, destinations = np.array(s["controls"], float), np.array(s["destinations"], float)
+            if not (np.isfinite(controls).all() and np.isfinite(destinations).all()):
+                raise ValueError("control points that are not numbers")
+            creature = Creature(controls, destinations, float(s["contraction"]))
+            # strokes stored before the water of revolution were found in the planar water
+            config = default_config(particles=particles, period=float(s["period"]), fluid=s.get("fluid", "planar"))
+        except (ValueError, KeyError, TypeError) as exc:
+            raise ValueError(f"{bell.name}'s stored stroke is damaged ({exc}): run Optimize Stroke again") from None
+        return creature, config, True
     cfg = default_config(particles=60)
     return default_creature(cfg), cfg, False
+
+
+def stroke_line(bell) -> str | None:
+    """What the panel says of the bell's stored stroke (None: none stored); a damaged one is said
+    to be damaged, not raised on every redraw."""
+    if PROP_STROKE not in bell:
+        return None
+    try:
+        s = json.loads(bell[PROP_STROKE])
+        return f"Stroke: fitness {float(s['fitness']):+.3f} ({s['method']}, {int(s['evaluations'])} cycles)"
+    except (ValueError, KeyError, TypeError):
+        return "Stroke: the stored values are damaged (run Optimize Stroke again)"
 
 
 def _points(obj):

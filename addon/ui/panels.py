@@ -1,6 +1,5 @@
 """The DeformRT sidebar tab in the 3D View."""
 
-import json
 import textwrap
 
 import bpy
@@ -134,9 +133,9 @@ class DEFORMRT_PT_jellyfish(bpy.types.Panel):
             layout.label(text="Select a jellyfish to optimise and bake it", icon="INFO")
             return
         layout.operator("deformrt.optimize_jellyfish", icon="PLAY")
-        if jellyfish.PROP_STROKE in bell:
-            s = json.loads(bell[jellyfish.PROP_STROKE])
-            layout.label(text=f"Stroke: fitness {s['fitness']:+.3f} ({s['method']}, {s['evaluations']} cycles)")
+        line = jellyfish.stroke_line(bell)
+        if line is not None:
+            layout.label(text=line)
         else:
             layout.label(text="No optimised stroke yet: baking uses the default one", icon="INFO")
         layout.operator("deformrt.bake_jellyfish", icon="ANIM")
