@@ -124,9 +124,9 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
     n_eased = 0
     if previous is not None and previous.history is not None:  # no jolt from the last frames
         for k in stack.active:
-            smoothed = eased(stack.verts[k], garr[k][0], k, previous.history, p.offset)
-            if smoothed is not None:
-                n_eased += int((smoothed != stack.verts[k]).any(axis=1).sum())
+            smoothed, count = eased(stack.verts[k], garr[k][0], k, previous.history, p.offset)
+            if count:
+                n_eased += count
                 stack.moved(k, smoothed)
     t0 = time.perf_counter()
     removed = _hidden_faces(stack) if p.remove_hidden else [np.zeros(len(f), dtype=bool) for f in stack.faces]

@@ -19,6 +19,20 @@ MAX_TORN = 2.9
 _ROUNDS = 40
 
 
+def _mean_pulls(n, ea, eb, half):
+    """Each edge (ea, eb) pulls its first end by ``half`` and its second by ``-half``; per vertex of
+    ``n``, the mean of its pulls and whether it was pulled."""
+    pull = np.zeros((n, 3))
+    count = np.zeros(n)
+    np.add.at(pull, ea, half)
+    np.add.at(pull, eb, -half)
+    np.add.at(count, ea, 1)
+    np.add.at(count, eb, 1)
+    touched = count > 0
+    pull[touched] /= count[touched, None]
+    return pull, touched
+
+
 def relax_stretch(fitted, moved_to, edges):
     """``moved_to`` (n, 3) with every edge (m, 2) over MAX_STRETCH times its length in ``fitted``
     brought back under it: each round the two ends' moves are drawn to their mean (both ends
@@ -46,16 +60,9 @@ def relax_stretch(fitted, moved_to, edges):
             break
         near[a[over]] = near[b[over]] = True
         ea, eb = a[over], b[over]
-        half = 0.5 * (move[eb] - move[ea])
-        pull = np.zeros_like(move)
-        count = np.zeros(len(move))
-        np.add.at(pull, ea, half)
-        np.add.at(pull, eb, -half)
-        np.add.at(count, ea, 1)
-        np.add.at(count, eb, 1)
-        touched = count > 0
-        move[touched] += pull[touched] / count[touched, None]
-        drawn[touched] = True
+        pull, touched = _mean_pulls(len(move), ea, eb, 0.5 * (move[eb] - move[ea]))
+        move[touched] += pull[touched]
+        drawn |= touched
     return fitted + move, int(drawn.sum())
 
 
@@ -80,16 +87,8 @@ def shorten_torn(fitted, moved_to, edges, limit):
             break
         sel = ask[over]
         half = (0.5 * (now[over] - limit * rest[sel]) / now[over])[:, None] * vec[over]
-        pull = np.zeros_like(out)
-        count = np.zeros(len(out))
-        np.add.at(pull, a[sel], half)
-        np.add.at(pull, b[sel], -half)
-        np.add.at(count, a[sel], 1)
-        np.add.at(count, b[sel], 1)
-        touched = count > 0
-        out[touched] += pull[touched] / count[touched, None]
+        pull, touched = _mean_pulls(len(out), a[sel], b[sel], half)
+        out[touched] += pull[touched]
         drawn |= touched
-        near = np.zeros(len(out), dtype=bool)
-        near[touched] = True
-        ask = np.flatnonzero(near[a] | near[b])
+        ask = np.flatnonzero(touched[a] | touched[b])  # only edges at a drawn vertex can change
     return out, int(drawn.sum())
