@@ -87,8 +87,9 @@ def dress(figure: str, layers, seed: int = 0, voxel: float = 0.008, frames: int 
         obj.deformrt.role, obj.deformrt.layer = "GARMENT", k
         studio.material(obj, name, layer.colour or PALETTE[layer.kind])
         garments.drape(obj, body, frames, garments.pin_mask(v, layer.kind, fig), gap_m)
-        # the cloth solver keeps its distance only approximately: every garment ends clear
-        draped = mesh_io.read_mesh(obj, world=False).vertices
+        # the cloth solver keeps its distance only approximately, and drapes without self-collision:
+        # every garment ends clear of the body and of itself
+        draped, _ = fitting.untangle(mesh_io.read_mesh(obj, world=False).vertices, f)
         obj.data.vertices.foreach_set("co", fitting.clear_of_body(draped, fig.vertices, fig.faces, gap_m)
                                       .astype(np.float32).ravel())
         obj.data.update()

@@ -17,6 +17,7 @@ from scipy.spatial import ConvexHull, cKDTree
 from ..core.geometry.normals import vertex_normals
 from ..core.geometry.topology import vertex_adjacency
 from ..core.layering.correspondence import nearest_on_surface
+from ..core.layering.metrics import self_crossing_edges, unique_edges
 from ..core.layering.segmentation import S13, segments_from_groups
 from .figures import Figure, limb_position
 
@@ -130,6 +131,45 @@ def clear_of_body(points, body_vertices, body_faces, gap: float) -> np.ndarray:
     out = points.copy()
     out[low] = q[low] + n[low] * gap
     return out
+
+
+def folded_faces(vertices, faces) -> np.ndarray:
+    """Bool per face: it faces against its corners' normals (a pleat folded flat over onto itself
+    shows its back, dark, even where no edge passes through the cloth)."""
+    a, b, c = (vertices[faces[:, k]] for k in range(3))
+    corner_normals = vertex_normals(vertices, faces)[faces].sum(axis=1)
+    return np.einsum("ij,ij->i", np.cross(b - a, c - a), corner_normals) < 0
+
+
+def untangle(vertices, faces, rounds: int = 40, rings: int = 2, weight: float = 0.5):
+    """``vertices`` with the places where the garment passes through itself or folds over onto
+    itself smoothed out: the cloth solve drapes without self-collision (which would take several
+    times as long), and such folds show as pinholes and slits of the cloth's dark back in a
+    render. Each round moves the ends of every self-crossing edge and the corners of every
+    folded face, with ``rings`` rings of neighbours round them, half way (``weight``) to their
+    neighbours' mean; the rest of the garment stays as it is. Returns (vertices, self-crossing
+    edges and folded faces left)."""
+    v = np.array(vertices, dtype=np.float64, copy=True)
+    adjacency = vertex_adjacency(faces, len(v)).astype(np.float64)
+    degree = np.maximum(np.asarray(adjacency.sum(axis=1)).ravel(), 1.0)
+    edges = unique_edges(faces)
+
+    def bad_vertices():
+        crossing, folded = self_crossing_edges(v, faces, edges=edges), folded_faces(v, faces)
+        mark = np.zeros(len(v), dtype=bool)
+        mark[edges[crossing].ravel()] = True
+        mark[faces[folded].ravel()] = True
+        return mark, int(crossing.sum() + folded.sum())
+
+    for _ in range(rounds):
+        mark, count = bad_vertices()
+        if not count:
+            return v, 0
+        for _ in range(rings):
+            mark |= (adjacency @ mark.astype(np.float64)) > 0
+        mean = (adjacency @ v) / degree[:, None]
+        v[mark] += weight * (mean[mark] - v[mark])
+    return v, bad_vertices()[1]
 
 
 def tube_garment(fig: Figure, part: np.ndarray, tube: Tube, ease: float, edge: float, n_around: int | None = None):

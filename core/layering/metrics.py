@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.topology import edges_with_counts
-from ..geometry.vectors import norms, rows
-from ..rays.scene import RayScene
+from ..geometry.vectors import box, norms, rows
+from ..rays.scene import RayScene, step_past_hit
 
 
 def unique_edges(faces) -> np.ndarray:
@@ -31,6 +31,46 @@ def crossing_edges(vertices_a, faces_a, scene_b: RayScene, edges=None) -> np.nda
         return scene_b.occluded(start, vec, max_dist=length)
     out = np.zeros(len(e), dtype=bool)
     out[ok] = scene_b.occluded(start[ok], vec[ok], max_dist=length[ok])
+    return out
+
+
+def self_crossing_edges(vertices, faces, scene: RayScene | None = None, edges=None) -> np.ndarray:
+    """Bool mask over ``edges`` (default ``unique_edges(faces)``): True where the edge passes
+    through a triangle of its own mesh that shares no vertex with it (cloth folded through
+    itself). Each edge is traced on past the triangles beside it, a few at a time."""
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces)
+    e = unique_edges(f) if edges is None else edges
+    out = np.zeros(len(e), dtype=bool)
+    if not len(e) or not len(f):
+        return out
+    scene = RayScene(v, f) if scene is None else scene
+    start = rows(v, e[:, 0])
+    vec = rows(v, e[:, 1]) - start
+    length = norms(vec)
+    live = np.flatnonzero(length > 0)
+    # along the edge in units of its length, from just past its start (where its neighbours meet
+    # it) to just short of its end; each search on starts past the last hit by float32's round-off
+    lo, hi = box(v)
+    step = np.full(len(e), np.inf)
+    step[live] = step_past_hit(length[live], lo, hi) / length[live]
+    t_min = step.copy()
+    for _ in range(32):  # triangles beside an edge along it: its two own, and a fan's at each end
+        if not len(live):
+            break
+        live = live[t_min[live] < 1.0 - step[live]]
+        hits = scene.intersect(start[live], vec[live], max_dist=1.0 - step[live], min_dist=t_min[live], scaled=True)
+        live, t, face = live[hits.hit], hits.t[hits.hit], hits.face[hits.hit]
+        corners = f[face]
+        beside = ((corners == e[live, :1]) | (corners == e[live, 1:])).any(axis=1)
+        # a triangle in the edge's own plane (a flat stretch of cloth) is touched, not crossed:
+        # Embree reports such rays' grazing contacts at t = 0
+        normal = hits.normal[hits.hit]
+        along = np.abs(np.einsum("ij,ij->i", normal, vec[live])) <= 1e-9 * norms(vec[live])
+        beside |= along
+        out[live[~beside]] = True
+        t_min[live[beside]] = t[beside] + step[live[beside]]
+        live = live[beside]
     return out
 
 

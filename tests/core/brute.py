@@ -67,6 +67,23 @@ def brute_crossings(va, fa, vb, fb):
     return total
 
 
+def brute_self_crossings(vertices, faces):
+    """Bool per unique edge (sorted pairs, np.unique order): it passes through a triangle of the same
+    mesh sharing no vertex with it, every (edge, triangle) pair tested."""
+    f = np.asarray(faces)
+    v = np.asarray(vertices, float)
+    e = np.unique(np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1), axis=0)
+    out = np.zeros(len(e), dtype=bool)
+    for i, (a, b) in enumerate(e):
+        apart = ~(f == a).any(1) & ~(f == b).any(1)
+        if apart.any():
+            vec = v[b] - v[a]
+            length = np.linalg.norm(vec)
+            _, face = moller_trumbore(v[a][None], vec[None], v, f[apart], 0.0, length)
+            out[i] = face[0] >= 0
+    return out
+
+
 def nearest_distances(points, vertices, faces):
     """Distance from each point to a triangle surface, every triangle that could be nearest tested:
     trimesh's query gives a distance to some triangle, an upper bound; every triangle whose centroid

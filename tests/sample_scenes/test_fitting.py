@@ -79,3 +79,41 @@ def test_skirt_tube_contains_the_hips_and_legs_at_every_height():
         assert (body @ hull.equations[:, :2].T + hull.equations[:, 2] < 0).all()
     with pytest.raises(ValueError, match="must be above"):
         fitting.tube_garment(fig, part, fitting.Tube(("knee", 0.0), ("waist", 0.0)), 0.01, 0.01)
+
+
+def test_untangle_smooths_a_fold_through_itself_away_and_leaves_the_rest():
+    import trimesh
+
+    from core.layering.metrics import self_crossing_edges
+    s = trimesh.creation.icosphere(subdivisions=3)
+    v = s.vertices.copy()
+    v[7] *= -1.4  # pulled through to beyond the far side
+    assert self_crossing_edges(v, s.faces).sum() > 0
+    out, left = fitting.untangle(v, s.faces)
+    assert left == 0 and not self_crossing_edges(out, s.faces).any()
+    # only round the pulled vertex and where its edges passed through moved
+    moved = np.linalg.norm(out - v, axis=1) > 0
+    assert 0 < moved.sum() < 0.25 * len(v)
+    near = (np.linalg.norm(v - v[7], axis=1) < 0.8) | (np.linalg.norm(v - s.vertices[7], axis=1) < 0.8)
+    assert not (moved & ~near).any()
+    # an untangled mesh comes back as it was
+    same, left = fitting.untangle(s.vertices, s.faces)
+    assert left == 0 and np.array_equal(same, s.vertices)
+
+
+def test_untangle_unfolds_a_pleat_folded_flat_over_itself():
+    # a wavy sheet whose one vertex slid past its neighbours: the triangles round it face backwards
+    n = 12
+    x, y = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n))
+    v = np.column_stack([x.ravel(), y.ravel(), 0.02 * np.sin(6 * x.ravel())])
+    i = np.arange(n - 1)
+    a = (i[:, None] * n + i[None, :]).ravel()
+    f = np.concatenate([np.column_stack([a, a + 1, a + n + 1]), np.column_stack([a, a + n + 1, a + n])])
+    assert not fitting.folded_faces(v, f).any()
+    k = 5 * n + 5
+    v[k, :2] += [0.16, 0.16]  # past the next vertex in both directions
+    assert fitting.folded_faces(v, f).sum() >= 2
+    out, left = fitting.untangle(v, f)
+    assert left == 0 and not fitting.folded_faces(out, f).any()
+    far = np.linalg.norm(v[:, :2] - v[k, :2], axis=1) > 0.5
+    np.testing.assert_array_equal(out[far], v[far])

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from core.layering.metrics import crossings, layer_crossings
-from tests.core.brute import brute_crossings
+from core.layering.metrics import crossings, layer_crossings, self_crossing_edges
+from tests.core.brute import brute_crossings, brute_self_crossings
 
 
 def test_two_spheres_cross_on_a_circle():
@@ -213,3 +213,39 @@ def test_the_99th_percentile_stretch_sees_a_seam_that_is_three_percent_of_the_ed
     ratio = np.linalg.norm(tri[1] - (tri[0] - [1, 1, 0])) / 1.0  # both edges at corner 0: sqrt(5)
     out = distortion(v0, v1, f)
     assert out["p99_stretch"] == pytest.approx(ratio) and out["max_stretch"] == pytest.approx(ratio)
+
+
+def _sheet(n=16):
+    """A flat square sheet of n x n vertices."""
+    x, y = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n))
+    v = np.column_stack([x.ravel(), y.ravel(), np.zeros(n * n)])
+    i = np.arange(n - 1)
+    a = (i[:, None] * n + i[None, :]).ravel()
+    return v, np.concatenate([np.column_stack([a, a + 1, a + n + 1]), np.column_stack([a, a + n + 1, a + n])])
+
+
+def test_self_crossings_of_a_sphere_pulled_through_itself_match_brute_force():
+    # one vertex pulled through to beyond the far side: its edges pass through the sphere there
+    s = trimesh.creation.icosphere(subdivisions=2)
+    v = s.vertices.copy()
+    v[7] *= -1.4
+    found = self_crossing_edges(v, s.faces)
+    assert (found == brute_self_crossings(v, s.faces)).all()
+    assert found.sum() >= 5
+    # two separate pieces of one mesh cut through each other: each crosses the other
+    a, f = _sheet(8)
+    b = a[:, [0, 2, 1]] + [0.0, 0.5, -0.5]  # the same sheet stood up across the first
+    v2, f2 = np.vstack([a, b]), np.vstack([f, f + len(a)])
+    found = self_crossing_edges(v2, f2)
+    assert (found == brute_self_crossings(v2, f2)).all()
+    assert found.sum() > 10
+
+
+def test_flat_and_closed_meshes_do_not_cross_themselves():
+    # a flat sheet's rays run in the plane of their neighbours (Embree reports grazing contacts there)
+    assert not self_crossing_edges(*_sheet()).any()
+    s = trimesh.creation.icosphere(subdivisions=3)
+    assert not self_crossing_edges(s.vertices, s.faces).any()
+    rng = np.random.default_rng(1)  # a rough but untangled sphere: neighbours' faces are passed over
+    rough = s.vertices * (1 + 0.01 * rng.normal(size=(len(s.vertices), 1)))
+    assert (self_crossing_edges(rough, s.faces) == brute_self_crossings(rough, s.faces)).all()
