@@ -34,8 +34,8 @@ class DeformRTObjectProperties(bpy.types.PropertyGroup):
 
 
 SCHEME_ITEMS = (
-    ("S5", "5 Parts", "Torso, arms, legs, plus a skirt segment (the thesis' static scheme)"),
-    ("S13", "13 Parts", "Upper and lower limbs, hands and feet apart (the thesis' scheme for posed figures)"),
+    ("S5", "5 Parts", "Torso, arms and legs, and one part for a skirt or dress: for standing figures"),
+    ("S13", "13 Parts", "Upper and lower limbs, hands and feet apart: for posed and animated figures"),
     ("NONE", "Whole Body", "No body parts: every garment point meets every higher layer near it"),
 )
 
@@ -45,10 +45,10 @@ PART_ITEMS = tuple((p, p.replace("_", " ").title(), f"The {p.replace('_', ' ')} 
 
 
 class DeformRTPartProbe(bpy.types.PropertyGroup):
-    part: EnumProperty(name="Part", items=PART_ITEMS, description="Body part whose probe distance this sets")
+    part: EnumProperty(name="Part", items=PART_ITEMS, description="Body part whose reach this sets")
     distance: FloatProperty(
-        name="Probe Distance",
-        description="How far probe rays of this part look for a higher layer",
+        name="Reach",
+        description="How far under a garment over this part DeformRT looks for the garment worn over it",
         default=0.05,
         min=0.0,
         soft_max=0.5,
@@ -73,7 +73,8 @@ class DeformRTSceneProperties(bpy.types.PropertyGroup):
     )
     scheme: EnumProperty(
         name="Body Parts",
-        description="How the body is split so probe rays only meet garments over the same part",
+        description="How the body is split into parts: cloth over one part is only fitted under garments over "
+        "the same part (a sleeve is never pushed under the shirt's front)",
         items=SCHEME_ITEMS,
         default="S5",
     )
@@ -88,16 +89,17 @@ class DeformRTSceneProperties(bpy.types.PropertyGroup):
         precision=4,
     )
     probe_distance: FloatProperty(
-        name="Probe Distance",
-        description="How far probe rays look for a higher layer; Auto (0) takes each body part's radius",
+        name="Reach",
+        description="How far under each point of a garment DeformRT looks for a garment worn over it: loose "
+        "clothes need more. Auto (0) takes each body part's thickness, more where lower garments hang loose",
         default=0.0,
         min=0.0,
         soft_max=1.0,
         subtype="DISTANCE",
         unit="LENGTH",
     )
-    part_probes: CollectionProperty(type=DeformRTPartProbe, name="Per-Part Probe Distances",
-                                   description="Probe distances set for single body parts")
+    part_probes: CollectionProperty(type=DeformRTPartProbe, name="Reach per Part",
+                                   description="The reach set for single body parts")
     boundary_pass: BoolProperty(
         name="Tuck Under Hems",
         description="Smoothly pull lower layers in under higher layers' hems and cuffs",
@@ -122,9 +124,9 @@ class DeformRTSceneProperties(bpy.types.PropertyGroup):
         default=True,
     )
     render_layered: BoolProperty(
-        name="Layered",
-        description="DeformRT Layered render: skip hits on a garment that a higher layer covers (off: plain ray "
-        "tracing, to compare)",
+        name="Hide Covered Garments",
+        description="Show each garment only where no garment worn over it covers it, as a resolve would (off: "
+        "every garment as it is, to compare)",
         default=True,
     )
     render_max_depth: IntProperty(
@@ -137,8 +139,7 @@ class DeformRTSceneProperties(bpy.types.PropertyGroup):
     )
     render_area_samples: IntProperty(
         name="Area Light Samples",
-        description="Shadow rays per side of each area light (the square of it per light): more gives smoother "
-        "soft shadows",
+        description="How smooth the soft shadows of area lights are: more is smoother and slower",
         default=4,
         min=1,
         max=32,

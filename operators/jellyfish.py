@@ -7,13 +7,15 @@ from ..core.jellyfish.swimming import default_config, optimize
 from .base import BackgroundOperator, DeformRTOperator
 
 METHODS = (
-    ("ga-sa", "Genetic + Annealing", "The thesis' genetic algorithm with simulated-annealing selection"),
-    ("de", "Differential Evolution", "scipy's differential evolution on the same budget"),
-    ("random", "Random Search", "Uniform random strokes (the baseline)"),
+    ("ga-sa", "Genetic + Annealing", "Breeds strokes from the best so far, now and then keeping a worse one "
+     "early on so the search does not settle too soon"),
+    ("de", "Differential Evolution", "Mixes the differences between strokes into new ones, on the same budget"),
+    ("random", "Random Search", "Strokes drawn at random, to compare"),
 )
 WATERS = (
     ("axisymmetric", "Round the Axis", "The water round a bell of revolution, as the 3D jellyfish swims in it"),
-    ("planar", "Planar", "The thesis' 2D water: a bell as long as the water is deep, which swims about half as far"),
+    ("planar", "Planar", "A bell as long as the water is deep (flat 2D water): the same stroke swims about half "
+     "as far"),
 )
 
 

@@ -52,10 +52,11 @@ class DEFORMRT_OT_resolve_layers(BackgroundOperator, bpy.types.Operator):
 
 
 class DEFORMRT_OT_add_part_probe(DeformRTOperator, bpy.types.Operator):
-    """Set how far one body part's probe rays look (starts from what the last resolve used)"""
+    """Set how far DeformRT looks for the garment worn over the cloth of one body part (starts from what the
+    last resolve used)"""
 
     bl_idname = "deformrt.add_part_probe"
-    bl_label = "Add Part Probe Distance"
+    bl_label = "Reach for One Part"
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
@@ -72,10 +73,10 @@ class DEFORMRT_OT_add_part_probe(DeformRTOperator, bpy.types.Operator):
 
 
 class DEFORMRT_OT_remove_part_probe(DeformRTOperator, bpy.types.Operator):
-    """Let this part's probe distance follow the body again"""
+    """Let this part's reach follow the body again"""
 
     bl_idname = "deformrt.remove_part_probe"
-    bl_label = "Remove Part Probe Distance"
+    bl_label = "Remove Reach for One Part"
     bl_options = {"REGISTER", "UNDO"}
 
     index: bpy.props.IntProperty(default=0, min=0)
@@ -112,25 +113,37 @@ class DEFORMRT_OT_auto_segment(DeformRTOperator, bpy.types.Operator):
 
 
 class DEFORMRT_OT_transfer_normals(_NeedsGarments, DeformRTOperator, bpy.types.Operator):
-    """Store each garment's normals from the body under it as an attribute the resolve follows until removed"""
+    """Store on each garment which way is out from the body under it, the way the resolve moves its cloth; edit
+    it to steer the fit, until you remove it"""
 
     bl_idname = "deformrt.transfer_normals"
     bl_label = "Transfer Global Normals"
     bl_options = {"REGISTER", "UNDO"}
 
-    remove: bpy.props.BoolProperty(name="Remove", description="Remove stored global normals instead",
-                                   default=False)
+    remove: bpy.props.BoolProperty(name="Remove", description="Remove the stored directions instead (as Remove "
+                                   "Global Normals)", default=False, options={"HIDDEN"})
 
     def execute(self, context):
         if self.remove:
-            n = layer_resolve.remove_normals(context.scene)
-            self.report({"INFO"}, f"Removed {n} stored normal attributes" if n else "No stored normals")
-            return {"FINISHED"}
+            return DEFORMRT_OT_remove_normals.execute(self, context)
         try:
             message = layer_resolve.transfer_normals(context.scene)
         except (ValueError, RuntimeError) as exc:
             return self.fail(exc)
         self.report({"INFO"}, message)
+        return {"FINISHED"}
+
+
+class DEFORMRT_OT_remove_normals(_NeedsGarments, DeformRTOperator, bpy.types.Operator):
+    """Remove the stored outward directions: the resolve reads them from the body again"""
+
+    bl_idname = "deformrt.remove_normals"
+    bl_label = "Remove Global Normals"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        n = layer_resolve.remove_normals(context.scene)
+        self.report({"INFO"}, f"Removed the stored directions of {n} garments" if n else "No stored directions")
         return {"FINISHED"}
 
 
@@ -312,5 +325,5 @@ class DEFORMRT_OT_bake_frames(_NeedsGarments, DeformRTOperator, bpy.types.Operat
 
 
 CLASSES = (DEFORMRT_OT_resolve_layers, DEFORMRT_OT_add_part_probe, DEFORMRT_OT_remove_part_probe,
-           DEFORMRT_OT_auto_segment, DEFORMRT_OT_transfer_normals,
+           DEFORMRT_OT_auto_segment, DEFORMRT_OT_transfer_normals, DEFORMRT_OT_remove_normals,
            DEFORMRT_OT_clear_results, DEFORMRT_OT_bake_results, DEFORMRT_OT_bake_frames, DEFORMRT_OT_inspect_layers)

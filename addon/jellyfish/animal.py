@@ -114,7 +114,11 @@ def jellyfish_of(obj):
 def store_stroke(bell, result, config):
     """Keep an optimisation's best creature and its cycle on the bell."""
     c = result.creature
+    cycles = max(len(result.cycle.path_per_cycle_m), 1)
     bell[PROP_STROKE] = json.dumps({
+        # what the panel says: bell diameters a cycle, and the wake's energy against the default stroke's
+        "diameters_per_cycle": result.cycle.path_m / cycles / config.bell.diameter,
+        "energy_share": result.cycle.energy_loss / result.scales.energy,
         "method": result.method, "fitness": result.fitness, "evaluations": result.evaluations,
         "stopped": result.stopped, "controls": c.controls.tolist(), "destinations": c.destinations.tolist(),
         "contraction": c.contraction, "path_m": result.cycle.path_m, "speed": result.cycle.speed.tolist(),
@@ -156,7 +160,10 @@ def stroke_line(bell) -> str | None:
         return None
     try:
         s = json.loads(bell[PROP_STROKE])
-        return f"Stroke: fitness {float(s['fitness']):+.3f} ({s['method']}, {int(s['evaluations'])} cycles)"
+        if "diameters_per_cycle" not in s:  # stored by an older DeformRT
+            return f"Stroke: optimised in {int(s['evaluations'])} trial cycles"
+        return (f"Stroke: {float(s['diameters_per_cycle']):.3f} bell diameters a cycle, wake energy "
+                f"{100 * float(s['energy_share']):.0f}% of the default stroke's")
     except (ValueError, KeyError, TypeError):
         return "Stroke: the stored values are damaged (run Optimize Stroke again)"
 

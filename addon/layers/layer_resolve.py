@@ -61,14 +61,14 @@ class ResolveSummary:
                  "out" if self.stats.get("body_inside_out") else "")
         far = self.stats.get("vertices_far_from_body", 0)
         if far:  # the method's known limit: cloth beyond the probe's reach from its body part is not probed
-            notes += (f"; {far} garment points beyond the probe's reach still showed through and were hidden "
-                      "(raise Probe Distance, or move the garments onto the body)")
+            notes += (f"; {far} garment points farther from the body than the Reach still showed through and were "
+                      "hidden (raise Reach, or move the garments onto the body)")
         if self.moved_after:  # what renders is moved again after the correction
             notes += (f"; {', '.join(self.moved_after)} run after DeformRT and move what it corrected (move them "
                       "above DeformRT and resolve again)")
         return (f"Resolved {len(self.garments)} garments on {self.body} in {self.seconds['total_s']:.2f} s: "
                 f"max move {self.length(moved)}, {sum(self.faces_hidden)} faces hidden{skin} "
-                f"(parts: {self.parts_source}){alone}{notes}")
+                f"(body parts from {self.parts_source}){alone}{notes}")
 
     def report(self) -> LayersReport:
         return LayersReport(
@@ -128,22 +128,22 @@ def body_parts(body, scheme_name, vertices, painted_groups=True, groups=True, de
     groups adds a modifier for a moment; ``groups`` False (inside a render) reads only the
     stored attribute, from ``depsgraph`` when given."""
     if scheme_name == "NONE":
-        return None, "whole body"
+        return None, "none: the whole body as one"
     scheme = get_scheme(scheme_name)
     painted = ([n for n in part_groups(body, scheme) if n != PART_GROUP_PREFIX + "skirt"]
                if painted_groups and groups else [])
     if painted:
         w = mesh_io.read_vertex_groups(body, painted)
         names = [n[len(PART_GROUP_PREFIX):] for n in painted]
-        return segments_from_groups(w, names, scheme, vertices), "DRT_ vertex groups"
+        return segments_from_groups(w, names, scheme, vertices), "the painted DRT_ part groups"
     stored = mesh_io.read_point_ints(body, scene_roles.PART_ATTRIBUTE[scheme.name], depsgraph)
     if stored is not None:
-        return np.clip(stored, 0, scheme.skirt - 1), f"attribute {scene_roles.PART_ATTRIBUTE[scheme.name]}"
+        return np.clip(stored, 0, scheme.skirt - 1), "the parts stored with the figure"
     names = [g.name for g in body.vertex_groups if not g.name.startswith(PART_GROUP_PREFIX)] if groups else []
     if names and len({part_of_group(n, scheme) for n in names}) > 1:
         w = mesh_io.read_vertex_groups(body, names)
-        return segments_from_groups(w, names, scheme, vertices), "armature vertex groups"
-    return None, "connected pieces (no part groups on the body)"
+        return segments_from_groups(w, names, scheme, vertices), "the rig's vertex groups"
+    return None, "its separate pieces (no part groups on the body)"
 
 
 def garment_parts(garment, scheme_name):

@@ -78,7 +78,7 @@ class DEFORMRT_PT_resolve(bpy.types.Panel):
         row.operator("deformrt.auto_segment", text="Auto-Segment", icon="GROUP_VERTEX")
         row = layout.row(align=True)
         row.operator("deformrt.transfer_normals", icon="NORMALS_VERTEX")
-        row.operator("deformrt.transfer_normals", text="Remove", icon="X").remove = True
+        row.operator("deformrt.remove_normals", text="Remove", icon="X")
         for name in ("offset", "probe_distance"):  # 0 means "found from the body": say so
             row = layout.row(align=True)
             row.prop(settings, name)
@@ -91,7 +91,7 @@ class DEFORMRT_PT_resolve(bpy.types.Panel):
                 row.prop(item, "part", text="")
                 row.prop(item, "distance", text="")
                 row.operator("deformrt.remove_part_probe", text="", icon="X").index = k
-            col.operator("deformrt.add_part_probe", text="Probe Distance per Part", icon="ADD")
+            col.operator("deformrt.add_part_probe", text="Reach for One Part", icon="ADD")
         layout.prop(settings, "boundary_pass")
         layout.prop(settings, "body_guard")
         layout.prop(settings, "remove_hidden")
@@ -159,9 +159,10 @@ def _report_lines(last, length) -> list:
         lines.append("Skirts: " + ", ".join(last.skirts))
     if last.far_from_body:
         # the thesis' known limit (4.6): cloth far from its body part is not probed
-        lines.append(f"{last.far_from_body} garment points beyond the probe's reach still showed through")
+        lines.append(f"{last.far_from_body} garment points farther from the body than the Reach still showed "
+                     "through")
     if last.probe_by_part:
-        lines.append("Probe reach: " + ", ".join(f"{p.replace('_', ' ')} {length(float(d))}"
+        lines.append("Reach: " + ", ".join(f"{p.replace('_', ' ')} {length(float(d))}"
                                                  for p, d in last.probe_by_part.items()))
     for a, b, n in last.still_crossing:
         # the thesis' known limits (4.6): what the method cannot untangle

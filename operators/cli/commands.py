@@ -108,7 +108,7 @@ def _cmd_demo(args) -> int:
         f"**Poke-through: {100 * poke_before:.2f}% before, {100 * poke_after:.2f}% after** (of the garments' "
         f"pixels over 8 views round the figure, those where a lower layer shows in front of a higher one). "
         f"Crossing edges between the garments: {int(np.triu(cross_before).sum()):,} before, "
-        f"{int(np.triu(cross_after).sum()):,} after. Resolved in {sec['total_s']:.2f} s (segmented by {parts}).",
+        f"{int(np.triu(cross_after).sum()):,} after. Resolved in {sec['total_s']:.2f} s (body parts from {parts}).",
         "",
         "Renders: before.png (as fitted one by one), after.png (resolved; the garments' meshes are unchanged, "
         "a DeformRT modifier shows the result). scene.blend: the resolved scene, to open in Blender.",
@@ -164,10 +164,10 @@ def _frames_sheet(scene, objs, out, args) -> list:
     """frames.png: SHEET_FRAMES frames of the animation as fitted (top row) and as Resolve on Frame
     Change shows them in playback (bottom row, every frame played in order); returns metrics lines."""
     from ...addon.io import mesh_io
+    from ...addon.io.image_io import contact_sheet
     from ...addon.layers import frame_handler
     from ...core.layering import metrics
     from ...sample_scenes import studio
-    from .jellyfish_demo import contact_sheet
 
     shown = np.linspace(scene.frame_start, scene.frame_end, SHEET_FRAMES).round().astype(int).tolist()
     size = (max(args.width // 2, 64), max(args.height // 2, 64))

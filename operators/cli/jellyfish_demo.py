@@ -15,30 +15,10 @@ import bpy
 import numpy as np
 
 from ...addon.io import blender_versions
+from ...addon.io.image_io import contact_sheet
 from ...addon.jellyfish import animal as jellyfish
 from ...core.jellyfish import bell3d
 from ...core.jellyfish.swimming import default_config, default_creature, fitness, reference_scales, simulate_cycle
-
-
-def contact_sheet(paths, out, columns):
-    """Tile equally sized PNGs row by row, first at the top left."""
-    tiles = []
-    for path in paths:
-        img = bpy.data.images.load(str(path))
-        w, h = img.size
-        px = np.empty(w * h * 4, np.float32)
-        img.pixels.foreach_get(px)
-        tiles.append(px.reshape(h, w, 4)[::-1])  # Blender's rows run bottom-up
-        bpy.data.images.remove(img)
-    rows = [np.concatenate(tiles[i:i + columns], axis=1) for i in range(0, len(tiles), columns)]
-    sheet = np.concatenate(rows, axis=0)
-    h, w = sheet.shape[:2]
-    img = bpy.data.images.new("DeformRT contact sheet", w, h, alpha=True)
-    img.pixels.foreach_set(np.ascontiguousarray(sheet[::-1]).ravel())
-    img.filepath_raw, img.file_format = str(out), "PNG"
-    img.save()
-    bpy.data.images.remove(img)
-
 
 TRAVEL_SHOTS, TRAVEL_EVERY = 8, 4  # the travel sheet: the start of every fourth cycle, 32 cycles
 
@@ -187,7 +167,7 @@ def run(args) -> int:
         "|---|---:|---:|---:|---:|---:|",
     ]
     scales = reference_scales(config)
-    for name, c, cr in (("default (thesis' Aurelia)", before, default_creature(config)),
+    for name, c, cr in (("default stroke (Aurelia-like)", before, default_creature(config)),
                         ("optimised", after, creature)):
         score = fitness(c.path_m, c.bending_energy, c.energy_loss, config, scales)
         rows.append(f"| {name} | {score:+.3f} | {c.path_m / d:.4f} "

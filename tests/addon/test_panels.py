@@ -3,6 +3,7 @@ sees, in which order, and that no line is wider than the sidebar."""
 
 import importlib
 import json
+import re
 
 import bpy
 import pytest
@@ -85,3 +86,50 @@ def test_a_damaged_or_crafted_report_is_named_and_the_panel_still_draws(extensio
     scene.deformrt.last_report = good
     labels = [d[1] for d in draw(extension, "DEFORMRT_PT_resolve") if d[0] == "label" and d[1]]
     assert "Resolved 2 garments" in labels and damaged[:40] not in " ".join(labels)
+
+
+# words that belong to the method's papers and the code, not to an artist's screen: the dissertation,
+# its probe rays, stored attribute names and enum identifiers
+RESEARCH_WORDS = re.compile(r"thesis|dissertation|\bthe seed\b|probe ray|\bdeformrt_[a-z]\w*|\bga-sa\b|\bS5\b|\bS13\b"
+                            r"|\bfitness\b", re.IGNORECASE)
+
+
+def _rna_texts(cls):
+    """What Blender shows of a registered class: its label and tooltip, each property's name and
+    tooltip, each enum item's name and tooltip."""
+    rna = cls.bl_rna
+    out = [rna.description, getattr(cls, "bl_label", ""), getattr(cls, "bl_description", "")]
+    for prop in rna.properties:
+        if prop.identifier in ("rna_type", "bl_idname", "bl_label", "bl_description", "bl_options",
+                               "bl_space_type", "bl_region_type", "bl_category", "bl_context"):
+            continue
+        out += [prop.name, prop.description]
+        if prop.type == "ENUM":
+            out += [t for item in prop.enum_items for t in (item.name, item.description)]
+    return out
+
+
+def test_no_research_words_reach_the_screen(extension, tubes):
+    """Every label, tooltip, enum entry, panel line and report an artist sees is in their words:
+    none names the dissertation, its probe rays, a stored attribute, a raw enum identifier or
+    the search's fitness (checked on everything the add-on registers, the panels drawn over a
+    resolved and an inspected scene, and a jellyfish with an optimised stroke)."""
+    mods = {m: importlib.import_module(f"{extension.__name__}.{m}") for m in (
+        "addon.properties", "addon.ui.preferences", "addon.ui.panels", "operators.tagging", "operators.layering",
+        "operators.jellyfish", "addon.render.engine", "addon.jellyfish.animal")}
+    classes = [c for m in mods.values() for c in getattr(m, "CLASSES", ())]
+    classes += [mods["addon.render.engine"].DEFORMRT_RE_layered, mods["addon.render.engine"].DEFORMRT_PT_layered_render]
+    texts = [t for c in classes for t in _rna_texts(c)]
+    assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
+    assert bpy.ops.deformrt.inspect_layers() == {"FINISHED"}
+    for panel in ("DEFORMRT_PT_layers", "DEFORMRT_PT_resolve"):
+        texts += [d[-1] or "" for d in draw(extension, panel)]
+    texts.append(json.loads(bpy.context.scene.deformrt.last_report)["message"])
+    assert bpy.ops.deformrt.add_jellyfish() == {"FINISHED"}
+    bell = mods["addon.jellyfish.animal"].jellyfish_of(bpy.context.active_object)
+    bell[mods["addon.jellyfish.animal"].PROP_STROKE] = json.dumps(
+        {"method": "ga-sa", "fitness": 0.1, "evaluations": 8, "diameters_per_cycle": 0.02, "energy_share": 0.9})
+    texts += [d[-1] or "" for d in draw(extension, "DEFORMRT_PT_jellyfish")]
+    assert len(texts) > 150  # the check saw the add-on's screens, not an empty list
+    found = sorted({t for t in texts if t and RESEARCH_WORDS.search(t)})
+    assert not found, found

@@ -178,7 +178,7 @@ def test_jellyfish_command_optimises_bakes_and_renders_a_contact_sheet(extension
 def test_a_stroke_a_file_stores_out_of_the_panels_range_is_named_not_run(extension, jelly):
     """Values read from a file are held to what the panel allows: a stored stroke of 30,000
     particles a side (Bake Swimming reached 6.2 GB in 15 s) is refused at once, naming the bell;
-    a stored fitness that is not a number reads as damaged in the panel instead of raising on
+    a stored path that is not a number reads as damaged in the panel instead of raising on
     every redraw."""
     import time
 
@@ -187,14 +187,19 @@ def test_a_stroke_a_file_stores_out_of_the_panels_range_is_named_not_run(extensi
     creature = animal.stroke_of(bell)[0]
     stroke = {"controls": creature.controls.tolist(), "destinations": creature.destinations.tolist(),
               "contraction": creature.contraction, "particles": 30000, "period": 1.0, "fluid": "axisymmetric",
-              "fitness": "not a number", "method": "ga-sa", "evaluations": 3}
+              "fitness": 0.25, "method": "ga-sa", "evaluations": 3, "diameters_per_cycle": "not a number",
+              "energy_share": 0.8}
     bell[animal.PROP_STROKE] = json.dumps(stroke)
     t0 = time.perf_counter()
     with pytest.raises(RuntimeError, match=f"{bell.name}'s stored stroke is damaged .*30000 particles"):
         bpy.ops.deformrt.bake_jellyfish(frame_start=1, frame_end=4, cycle_frames=4)
     assert time.perf_counter() - t0 < 5.0
     assert animal.stroke_line(bell) == "Stroke: the stored values are damaged (run Optimize Stroke again)"
-    stroke.update(particles=60, fitness=0.25)
+    stroke.update(particles=60, diameters_per_cycle=0.0214)
     bell[animal.PROP_STROKE] = json.dumps(stroke)
     assert animal.stroke_of(bell)[1].particles == 60
-    assert animal.stroke_line(bell) == "Stroke: fitness +0.250 (ga-sa, 3 cycles)"
+    # in plain words: how far it swims a cycle, and its wake's energy against the default stroke's
+    assert animal.stroke_line(bell) == "Stroke: 0.021 bell diameters a cycle, wake energy 80% of the default stroke's"
+    del stroke["diameters_per_cycle"]  # stored by an older DeformRT
+    bell[animal.PROP_STROKE] = json.dumps(stroke)
+    assert animal.stroke_line(bell) == "Stroke: optimised in 3 trial cycles"

@@ -223,7 +223,7 @@ def test_painted_part_groups_are_honoured(extension, tubes):
     bpy.ops.deformrt.resolve_layers()
     report = json.loads(bpy.context.scene.deformrt.last_report)
     # the jacket is painted onto another part: the shirt's probes may not meet it, nothing moves
-    assert report["parts"] == "DRT_ vertex groups" and report["max_move"][0] == 0.0
+    assert report["parts"] == "the painted DRT_ part groups" and report["max_move"][0] == 0.0
     jacket.vertex_groups.clear()
     io.write_vertex_groups(jacket, ["DRT_torso"], np.ones((len(jacket.data.vertices), 1)))
     bpy.ops.deformrt.resolve_layers()
@@ -335,7 +335,7 @@ def test_auto_segment_writes_the_figures_parts_and_finds_the_dresses(extension, 
             counts[list(_group_members(g, name))] += 1
         assert (counts == 1).all()
     assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
-    assert "DRT_ vertex groups" in bpy.context.scene.deformrt.last_report
+    assert "the painted DRT_ part groups" in bpy.context.scene.deformrt.last_report
     layers = [evaluated(o) for o in garments]
     assert sum(overlapping_pairs(layers[i], layers[j]) for i in range(4) for j in range(i + 1, 4)) == 0
 
@@ -419,7 +419,7 @@ def test_garments_far_from_the_body_are_named_in_the_report(extension, tubes):
         g.location.x += 0.6  # off the body, still round each other
     assert bpy.ops.deformrt.resolve_layers() == {"FINISHED"}
     message = json.loads(bpy.context.scene.deformrt.last_report)["message"]
-    assert "garment points beyond the probe's reach still showed through and were hidden" in message
+    assert "garment points farther from the body than the Reach still showed through and were hidden" in message
 
 
 def test_linked_garments_are_refused_by_name_and_nothing_is_added(extension, tubes, tmp_path):
@@ -529,7 +529,7 @@ def test_panel_summary_names_skirts_far_points_and_inward_garments(extension):
     assert lines[0] == "Resolved 2 garments" and "Skirts: Dress" in lines
     assert any("12 garment points" in x for x in lines)
     assert any(x.startswith("Shirt: faces point inward") for x in lines)
-    assert "Probe reach: torso 14 cm, left arm 4 cm" in lines
+    assert "Reach: torso 14 cm, left arm 4 cm" in lines
     assert any(x.startswith("Shirt and Jacket still cross at 7 edges") for x in lines)
     assert panels.report_lines(reports.from_json("not json")) == [reports.DAMAGED.message]  # said, not raised
 
