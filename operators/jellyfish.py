@@ -3,7 +3,7 @@
 import bpy
 
 from ..addon.jellyfish import animal as jellyfish
-from ..core.jellyfish.swimming import default_config, optimize
+from ..core.jellyfish.swimming import GOAL_WEIGHTS, default_config, optimize
 from .base import BackgroundOperator, DeformRTOperator
 
 METHODS = (
@@ -11,6 +11,10 @@ METHODS = (
      "early on so the search does not settle too soon"),
     ("de", "Differential Evolution", "Mixes the differences between strokes into new ones, on the same budget"),
     ("random", "Random Search", "Strokes drawn at random, to compare"),
+)
+GOALS = (
+    ("EFFICIENT", "Far for Little Effort", "The farthest swim for the bending and the wake's energy it costs"),
+    ("FASTEST", "Farthest", "The farthest swim, whatever it costs"),
 )
 WATERS = (
     ("axisymmetric", "Round the Axis", "The water round a bell of revolution, as the 3D jellyfish swims in it"),
@@ -69,6 +73,12 @@ class DEFORMRT_OT_optimize_jellyfish(_NeedsJellyfish, BackgroundOperator, bpy.ty
     particles: bpy.props.IntProperty(name="Resolution", description="Fluid particles per side (an odd count "
                                      "is rounded up)", default=100, min=20, max=400)
     water: bpy.props.EnumProperty(name="Water", items=WATERS, default="axisymmetric")
+    viscosity: bpy.props.FloatProperty(
+        name="Water Viscosity", default=default_config().viscosity, min=1e-7, max=1e-2, precision=7, step=0.0001,
+        description="How thick the water is, in m²/s. The default, ten times water's, swims as a 3 cm medusa does "
+        "in water (the same Reynolds number); water's own 0.000001 needs a finer lattice than Resolution gives, "
+        "and the path it finds then depends on the lattice")
+    goal: bpy.props.EnumProperty(name="Goal", items=GOALS, default="EFFICIENT")
     seed: bpy.props.IntProperty(name="Seed", default=0, min=0)
     workers: bpy.props.IntProperty(name="Processes", description="0 uses every core", default=0, min=0, max=256)
 
@@ -79,7 +89,8 @@ class DEFORMRT_OT_optimize_jellyfish(_NeedsJellyfish, BackgroundOperator, bpy.ty
     def prepare(self, context):
         population = self.population + self.population % 2  # pairs of parents
         return {"bell": jellyfish.jellyfish_of(context.active_object).name, "population": population,
-                "config": default_config(particles=self.particles + self.particles % 2, fluid=self.water)}
+                "config": default_config(particles=self.particles + self.particles % 2, fluid=self.water,
+                                         viscosity=self.viscosity, weights=GOAL_WEIGHTS[self.goal])}
 
     def work(self, job, progress, stop):
         result = optimize(job["config"], self.method, self.seed, population=job["population"],
@@ -89,7 +100,7 @@ class DEFORMRT_OT_optimize_jellyfish(_NeedsJellyfish, BackgroundOperator, bpy.ty
 
     def status_text(self, state) -> str:
         best = state.get("best", float("nan"))
-        return (f"DeformRT: {state['done']}/{state['total']} cycles, best fitness {best:+.3f}"
+        return (f"DeformRT: {state['done']}/{state['total']} trial cycles, best score {best:+.3f}"
                 + (" (stopping)" if state["stop"] else " (Esc keeps the best so far)"))
 
     def finish(self, context, job, result):
@@ -98,11 +109,15 @@ class DEFORMRT_OT_optimize_jellyfish(_NeedsJellyfish, BackgroundOperator, bpy.ty
             return self.fail(RuntimeError("The jellyfish was deleted while optimising"))
         config = job["config"]
         jellyfish.store_stroke(bell, result, config)
-        how = "stopped early, kept the best" if result.stopped == "cancelled" else result.stopped
-        self.report({"INFO"}, f"Best stroke: fitness {result.fitness:+.3f}, "
-                              f"{result.cycle.path_m / len(result.cycle.path_per_cycle_m) / config.bell.diameter:.3f} "
-                              f"bell diameters per cycle "
-                              f"({result.evaluations} cycles in {result.seconds:.0f} s, {how})")
+        how = {"cancelled": "stopped early, kept the best", "agreement": "the strokes tried agreed",
+               "generations": "all generations tried", "budget": "all trials spent"}.get(result.stopped, result.stopped)
+        cycles = len(result.cycle.path_per_cycle_m)
+        per_cycle = result.cycle.path_m / cycles / config.bell.diameter
+        default = result.scales.path / config.cycles / config.bell.diameter
+        energy = 100 * result.cycle.energy_loss / result.scales.energy
+        self.report({"INFO"}, f"Best stroke: {per_cycle:.3f} bell diameters a cycle (the default stroke "
+                              f"{default:.3f}), wake energy {energy:.0f}% of the default's "
+                              f"({result.evaluations} trial cycles in {result.seconds:.0f} s, {how})")
         return {"FINISHED"}
 
 

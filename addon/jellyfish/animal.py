@@ -122,12 +122,15 @@ def store_stroke(bell, result, config):
         "method": result.method, "fitness": result.fitness, "evaluations": result.evaluations,
         "stopped": result.stopped, "controls": c.controls.tolist(), "destinations": c.destinations.tolist(),
         "contraction": c.contraction, "path_m": result.cycle.path_m, "speed": result.cycle.speed.tolist(),
-        "period": config.period, "particles": config.particles, "fluid": config.fluid})
+        "period": config.period, "particles": config.particles, "fluid": config.fluid, "viscosity": config.viscosity,
+        "weights": list(config.weights)})
 
 
 # Optimize Stroke's Resolution allows 20-400 particles a side (an odd count rounded up); a stroke
 # read from a file with more would make Bake Swimming allocate gigabytes (30,000: 6.2 GB in 15 s)
 PARTICLES = (20, 400)
+# and its Water Viscosity 1e-7 to 1e-2 m^2/s (from a tenth of water's to syrup's)
+VISCOSITY = (1e-7, 1e-2)
 
 
 def stroke_of(bell):
@@ -145,7 +148,11 @@ def stroke_of(bell):
                 raise ValueError("control points that are not numbers")
             creature = Creature(controls, destinations, float(s["contraction"]))
             # strokes stored before the water of revolution were found in the planar water
-            config = default_config(particles=particles, period=float(s["period"]), fluid=s.get("fluid", "planar"))
+            viscosity = float(s.get("viscosity", default_config().viscosity))
+            if not VISCOSITY[0] <= viscosity <= VISCOSITY[1]:
+                raise ValueError(f"a viscosity of {viscosity!r} m^2/s, outside {VISCOSITY[0]:g}-{VISCOSITY[1]:g}")
+            config = default_config(particles=particles, period=float(s["period"]), fluid=s.get("fluid", "planar"),
+                                    viscosity=viscosity)
         except (ValueError, KeyError, TypeError) as exc:
             raise ValueError(f"{bell.name}'s stored stroke is damaged ({exc}): run Optimize Stroke again") from None
         return creature, config, True

@@ -89,6 +89,11 @@ class JellyfishConfig:
         return int(round(self.particles * self.height / self.box))
 
 
+# what a stroke search looks for, as eq. 3.14's weights (w_d, w_b, w_e): the farthest swim for its
+# bending and wake energy (the dissertation's), or the farthest swim whatever it costs
+GOAL_WEIGHTS = {"EFFICIENT": JellyfishConfig.weights, "FASTEST": (1.0, 0.0, 0.0)}
+
+
 def default_config(**changes) -> JellyfishConfig:
     """The thesis' Aurelia case: 10 cm bell, 20 x 20 cm domain, 100 x 100 particles, 14 substeps."""
     return replace(JellyfishConfig(), **changes)

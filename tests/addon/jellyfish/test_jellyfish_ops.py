@@ -57,12 +57,19 @@ def test_optimise_in_worker_processes_then_bake_a_swim_that_keeps_its_volume(ext
     core_jf = sub(extension, "core.jellyfish")
     core_bell = sub(extension, "core.jellyfish.bell")
     # two worker processes import the installed extension's core without Blender's add-on machinery
-    assert bpy.ops.deformrt.optimize_jellyfish(particles=30, population=4, generations=1, workers=2) == {"FINISHED"}
+    assert bpy.ops.deformrt.optimize_jellyfish(particles=30, population=4, generations=1, workers=2, goal="FASTEST",
+                                               viscosity=2e-5) == {"FINISHED"}
     stroke = json.loads(jelly["deformrt_jellyfish_stroke"])
     assert stroke["evaluations"] == 8 and stroke["method"] == "ga-sa" and stroke["fluid"] == "axisymmetric"
+    assert stroke["viscosity"] == pytest.approx(2e-5) and stroke["weights"] == [1.0, 0.0, 0.0]
     creature = core_bell.Creature(np.array(stroke["controls"]), np.array(stroke["destinations"]), stroke["contraction"])
-    replay = core_jf.simulate_cycle(creature, core_jf.default_config(particles=30))
+    replay = core_jf.simulate_cycle(creature, core_jf.default_config(particles=30, viscosity=stroke["viscosity"]))
     assert replay.path_m == pytest.approx(stroke["path_m"], rel=1e-9)
+    # the panel says how far it swims, against the default stroke in the same water
+    default = core_jf.simulate_cycle(core_jf.default_creature(core_jf.default_config()),
+                                     core_jf.default_config(particles=30, viscosity=2e-5))
+    assert stroke["diameters_per_cycle"] == pytest.approx(replay.path_m / 0.1, rel=1e-9)
+    assert stroke["diameters_per_cycle"] > default.path_m / 0.1  # the farthest: it beats the default's path
 
     # a stroke stored before the water of revolution replays in the planar water it was found in
     animal = sub(extension, "addon.jellyfish.animal")
@@ -89,7 +96,7 @@ def test_optimise_in_worker_processes_then_bake_a_swim_that_keeps_its_volume(ext
     scene.frame_set(13)  # one cycle on: the bell has swum the stored path, in its own scale
     assert jelly.location.z == pytest.approx(stroke["path_m"] * 5.0, abs=1e-6)
     scene.frame_set(25)  # two cycles on: the second carried on from the first, not the first again
-    two = core_jf.simulate_cycles(creature, core_jf.default_config(particles=30), 2)
+    two = core_jf.simulate_cycles(creature, core_jf.default_config(particles=30, viscosity=stroke["viscosity"]), 2)
     assert jelly.location.z == pytest.approx(two.path_m * 5.0, abs=1e-6)
     assert two.path_per_cycle_m[1] != pytest.approx(two.path_per_cycle_m[0], rel=1e-3)
     keys = [k.name for k in jelly.data.shape_keys.key_blocks]
@@ -203,3 +210,11 @@ def test_a_stroke_a_file_stores_out_of_the_panels_range_is_named_not_run(extensi
     del stroke["diameters_per_cycle"]  # stored by an older DeformRT
     bell[animal.PROP_STROKE] = json.dumps(stroke)
     assert animal.stroke_line(bell) == "Stroke: optimised in 3 trial cycles"
+    # the water it was found in comes back with it; water as thick as tar is not one the panel makes
+    stroke["viscosity"] = 2e-6
+    bell[animal.PROP_STROKE] = json.dumps(stroke)
+    assert animal.stroke_of(bell)[1].viscosity == 2e-6
+    stroke["viscosity"] = 5.0
+    bell[animal.PROP_STROKE] = json.dumps(stroke)
+    with pytest.raises(ValueError, match="damaged .*viscosity of 5.0"):
+        animal.stroke_of(bell)
