@@ -27,7 +27,9 @@ from ...core.jellyfish.swimming import (
     simulate_cycle,
 )
 
-TRAVEL_SHOTS, TRAVEL_EVERY = 8, 4  # the travel sheet: the start of every fourth cycle, 32 cycles
+# the travel sheet: the start of every fourth cycle, 32 cycles; a stroke that swims more than SWIFT
+# bell diameters in its first cycle from rest is shown every cycle, so 8 cycles stay in the frame
+TRAVEL_SHOTS, TRAVEL_EVERY, SWIFT = 8, 4, 0.05
 
 
 def _markers(at, size):
@@ -123,7 +125,8 @@ def run(args) -> int:
     after = simulate_cycle(creature, config)
 
     frames = args.cycle_frames
-    travel_cycles = TRAVEL_EVERY * TRAVEL_SHOTS
+    every = 1 if after.path_m / config.bell.diameter > SWIFT else TRAVEL_EVERY
+    travel_cycles = every * TRAVEL_SHOTS
     last_frame = travel_cycles * frames + 1
     t0 = time.perf_counter()
     if bpy.ops.deformrt.bake_jellyfish(frame_start=1, frame_end=last_frame, cycle_frames=frames) != {"FINISHED"}:
@@ -155,10 +158,11 @@ def run(args) -> int:
     rise = _bell_top(bell, n)[2] - start[2]
     _markers(start, args.size)
     cam.data.lens = 50
-    view = 1.9 * args.size  # across the frame: the bell and the bars either side
+    # across the frame: the bell and the bars either side, and in its height the whole rise
+    view = max(1.9 * args.size, (rise + 1.3 * args.size) * args.height / args.width)
     cam.location = (start[0], start[1] - view * cam.data.lens / 36.0, start[2] + 0.5 * rise)
     cam.rotation_euler = (np.radians(90.0), 0.0, 0.0)
-    travel_shots = [1 + TRAVEL_EVERY * k * frames for k in range(TRAVEL_SHOTS)]
+    travel_shots = [1 + every * k * frames for k in range(TRAVEL_SHOTS)]
     render_s += _render_sheet(scene, out, "contact_sheet", travel_shots, args.height, args.width, args.samples)
     rendered = 2 * len(travel_shots)
 
@@ -191,7 +195,7 @@ def run(args) -> int:
         f"Bell volume over the baked cycle: largest change {100 * max(volume_err):.3f}% of rest.",
         "",
         "contact_sheet.png: the bell's travel, the start of cycles "
-        f"{', '.join(str(1 + TRAVEL_EVERY * k) for k in range(TRAVEL_SHOTS))} (frames "
+        f"{', '.join(str(1 + every * k) for k in range(TRAVEL_SHOTS))} (frames "
         f"{', '.join(map(str, travel_shots))}), left to right, top to bottom; the orange bars mark where its top "
         f"began. It rises {rise * 1000:.0f} mm ({rise / args.size:.3f} bell diameters) in {travel_cycles} cycles "
         f"(the stroke simulated {jellyfish.BAKE_CYCLES} cycles in a row, the last repeating after).",
