@@ -82,7 +82,7 @@ class DEFORMRT_OT_optimize_jellyfish(_NeedsJellyfish, BackgroundOperator, bpy.ty
     seed: bpy.props.IntProperty(name="Seed", default=0, min=0)
     workers: bpy.props.IntProperty(name="Processes", description="0 uses every core", default=0, min=0, max=256)
 
-    status = "DeformRT: optimising (Esc keeps the best so far)"
+    status = "DeformRT: optimizing (Esc keeps the best so far)"
     keeps_partial = True
     interval = 0.2
 
@@ -106,7 +106,7 @@ class DEFORMRT_OT_optimize_jellyfish(_NeedsJellyfish, BackgroundOperator, bpy.ty
     def finish(self, context, job, result):
         bell = bpy.data.objects.get(job["bell"])
         if bell is None:
-            return self.fail(RuntimeError("The jellyfish was deleted while optimising"))
+            return self.fail(RuntimeError("The jellyfish was deleted while optimizing"))
         config = job["config"]
         jellyfish.store_stroke(bell, result, config)
         how = {"cancelled": "stopped early, kept the best", "agreement": "the strokes tried agreed",

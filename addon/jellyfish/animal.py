@@ -168,7 +168,7 @@ def stroke_line(bell) -> str | None:
     try:
         s = json.loads(bell[PROP_STROKE])
         if "diameters_per_cycle" not in s:  # stored by an older DeformRT
-            return f"Stroke: optimised in {int(s['evaluations'])} trial cycles"
+            return f"Stroke: optimized in {int(s['evaluations'])} trial cycles"
         return (f"Stroke: {float(s['diameters_per_cycle']):.3f} bell diameters a cycle, wake energy "
                 f"{100 * float(s['energy_share']):.0f}% of the default stroke's")
     except (ValueError, KeyError, TypeError):
@@ -310,7 +310,7 @@ def bake(scene, bell, frame_start, frame_end, cycle_frames, wobble=0.03, seed=0,
         bell.keyframe_insert("location", index=2, frame=f.frame)
     bell.location.z = z0
     scene.frame_set(scene.frame_current)
-    source = "the optimised stroke" if optimised else "the default stroke (nothing optimised yet)"
+    source = "the optimized stroke" if optimised else "the default stroke (nothing optimized yet)"
     per_cycle = cycle.path_per_cycle_m / shape.diameter
     later = f", {per_cycle[-1]:.3f} in cycle {count} and each after" if count > 1 else ""
     return (f"Baked {frame_end - frame_start + 1} frames of {source}: {per_cycle[0]:.3f} bell diameters in the first "

@@ -139,6 +139,9 @@ class DEFORMRT_PT_layered_render(bpy.types.Panel):
         layout.prop(settings, "probe_distance")
         layout.prop(settings, "offset")
         layout.prop(context.scene.render, "use_persistent_data")  # Blender's own switch, as Cycles shows it
+        # what a user would otherwise read as faults of the picture
+        layout.label(text="A quick preview: one ray a pixel, so edges are jagged and seams may show dark", icon="INFO")
+        layout.label(text="For the final picture, render the resolved scene with Cycles or Eevee")
 
 
 class DEFORMRT_RE_layered(bpy.types.RenderEngine):

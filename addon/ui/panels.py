@@ -130,14 +130,14 @@ class DEFORMRT_PT_jellyfish(bpy.types.Panel):
         layout.operator("deformrt.add_jellyfish", icon="ADD")
         bell = jellyfish.jellyfish_of(context.active_object)
         if bell is None:
-            layout.label(text="Select a jellyfish to optimise and bake it", icon="INFO")
+            layout.label(text="Select a jellyfish to optimize and bake it", icon="INFO")
             return
         layout.operator("deformrt.optimize_jellyfish", icon="PLAY")
         line = jellyfish.stroke_line(bell)
         if line is not None:
             layout.label(text=line)
         else:
-            layout.label(text="No optimised stroke yet: baking uses the default one", icon="INFO")
+            layout.label(text="No optimized stroke yet: baking uses the default one", icon="INFO")
         layout.operator("deformrt.bake_jellyfish", icon="ANIM")
 
 

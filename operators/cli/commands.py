@@ -55,7 +55,8 @@ def _cmd_demo(args) -> int:
     from ...core.layering import metrics
     from ...sample_scenes import catalog, studio
 
-    out = Path(args.out).resolve()
+    # each scene its own folder unless told: a second demo does not overwrite the first's
+    out = Path(args.out or ("out/demo" if args.scene == "fig_4_12" else f"out/demo_{args.scene}")).resolve()
     out.mkdir(parents=True, exist_ok=True)
     progress = _Progress(6 if args.scene in ANIMATED else 5)
     progress(f"building the {args.scene} scene")
@@ -265,7 +266,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub = ap.add_subparsers(dest="command", required=True)
     sub.add_parser("info", help="versions, Embree, threads").set_defaults(run=_cmd_info)
     demo = sub.add_parser("demo", help="build a sample scene, measure it and render it to PNG")
-    demo.add_argument("--out", default="out/demo", help="folder for renders and metrics.md")
+    demo.add_argument("--out", default=None, help="folder for renders and metrics.md (default out/demo, or "
+                      "out/demo_<scene> for another scene)")
     demo.add_argument("--seed", type=int, default=0)
     demo.add_argument("--scene", choices=DEMO_SCENES, default="fig_4_12", help="bundled scene to resolve")
     demo.add_argument("--width", type=int, default=360, help="render width in pixels")

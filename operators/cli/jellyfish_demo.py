@@ -179,7 +179,7 @@ def run(args) -> int:
     ]
     scales = reference_scales(config)
     for name, c, cr in (("default stroke (Aurelia-like)", before, default_creature(config)),
-                        ("optimised", after, creature)):
+                        ("optimized", after, creature)):
         score = fitness(c.path_m, c.bending_energy, c.energy_loss, config, scales)
         rows.append(f"| {name} | {score:+.3f} | {c.path_m / d:.4f} "
                     f"| {c.bending_energy:.3g} | {c.energy_loss:.3g} | {cr.contraction:.2f} |")
@@ -202,16 +202,21 @@ def run(args) -> int:
         "",
         f"stroke_sheet.png: frames {', '.join(map(str, stroke_shots))} of the first {frames}-frame cycle, the camera "
         "riding along (contraction, then relaxation).",
+        "",
+        "scene.blend: the sea scene with the baked jellyfish, to open in Blender (it plays without DeformRT).",
     ]
     table = "\n".join(rows)
     (out / "metrics.md").write_text(table + "\n")
+    scene.frame_set(1)
+    bpy.ops.wm.save_as_mainfile(filepath=str(out / "scene.blend"), check_existing=False)
     print(table)
-    print(f"\nwrote {out / 'contact_sheet.png'}, {out / 'stroke_sheet.png'} and {out / 'metrics.md'}")
+    print(f"\nwrote {out / 'contact_sheet.png'}, {out / 'stroke_sheet.png'}, {out / 'metrics.md'} and "
+          f"{out / 'scene.blend'}")
     return 0
 
 
 def add_parser(sub):
-    p = sub.add_parser("jellyfish", help="optimise, bake and render the jellyfish on the sea scene")
+    p = sub.add_parser("jellyfish", help="optimize, bake and render the jellyfish on the sea scene")
     p.add_argument("--out", default="out/jellyfish",
                    help="folder for frames, contact_sheet.png, stroke_sheet.png and metrics.md")
     p.add_argument("--method", choices=("ga-sa", "de", "random"), default="ga-sa")

@@ -133,3 +133,5 @@ def test_no_research_words_reach_the_screen(extension, tubes):
     assert len(texts) > 150  # the check saw the add-on's screens, not an empty list
     found = sorted({t for t in texts if t and RESEARCH_WORDS.search(t)})
     assert not found, found
+    # and in Blender's own spelling (Optimize, Normalize): none says "optimise"
+    assert not [t for t in texts if t and "optimis" in t.lower()]

@@ -179,7 +179,8 @@ def test_jellyfish_command_optimises_bakes_and_renders_a_contact_sheet(extension
     travel = tiles("contact_sheet.png", 56, 40)  # landscape: the bell and the bars either side
     assert np.abs(travel[1, :, 3] - travel[0, :, 0]).mean() > 1e-3  # a fixed camera: the bell rose
     table = (tmp_path / "metrics.md").read_text()
-    assert "| optimised |" in table and "4 cycles on a 24x24" in table
+    assert "| optimized |" in table and "4 cycles on a 24x24" in table
+    assert (tmp_path / "scene.blend").stat().st_size > 0  # the baked scene, to open in Blender
 
 
 def test_a_stroke_a_file_stores_out_of_the_panels_range_is_named_not_run(extension, jelly):
@@ -209,7 +210,7 @@ def test_a_stroke_a_file_stores_out_of_the_panels_range_is_named_not_run(extensi
     assert animal.stroke_line(bell) == "Stroke: 0.021 bell diameters a cycle, wake energy 80% of the default stroke's"
     del stroke["diameters_per_cycle"]  # stored by an older DeformRT
     bell[animal.PROP_STROKE] = json.dumps(stroke)
-    assert animal.stroke_line(bell) == "Stroke: optimised in 3 trial cycles"
+    assert animal.stroke_line(bell) == "Stroke: optimized in 3 trial cycles"
     # the water it was found in comes back with it; water as thick as tar is not one the panel makes
     stroke["viscosity"] = 2e-6
     bell[animal.PROP_STROKE] = json.dumps(stroke)
