@@ -52,8 +52,7 @@ class DEFORMRT_OT_resolve_layers(BackgroundOperator, bpy.types.Operator):
 
 
 class DEFORMRT_OT_add_part_probe(DeformRTOperator, bpy.types.Operator):
-    """Set how far DeformRT looks for the garment worn over the cloth of one body part (starts from what the
-    last resolve used)"""
+    """Set how far under one body part's cloth DeformRT looks for the garment worn over it"""
 
     bl_idname = "deformrt.add_part_probe"
     bl_label = "Reach for One Part"
@@ -113,8 +112,7 @@ class DEFORMRT_OT_auto_segment(DeformRTOperator, bpy.types.Operator):
 
 
 class DEFORMRT_OT_transfer_normals(_NeedsGarments, DeformRTOperator, bpy.types.Operator):
-    """Store on each garment which way is out from the body under it, the way the resolve moves its cloth; edit
-    it to steer the fit, until you remove it"""
+    """Store on each garment which way is out from the body, the way the resolve moves it; edit it to steer the fit"""
 
     bl_idname = "deformrt.transfer_normals"
     bl_label = "Transfer Global Normals"
