@@ -3,8 +3,9 @@
 The bell is two hemi-ellipses over the same diameter, the exumbrella (upper) and the
 subumbrella (lower), meeting at the margins. A creature moves k control points on the
 right half (mirrored to the left) to destinations d_i; ten anchors stay put (the eight
-border points of the domain's box and the two bell points on the axis, N = 10 + k as in
-the thesis). At phase s in [0, 1] the control points sit at q + s (d - q) and a thin-plate
+border points of a square about the bell and the two bell points on the axis, N = 10 + k as in
+the thesis; the thesis puts the square on the domain's box, which made the bell's deformation,
+and so its swim, depend on how much water it swims in). At phase s in [0, 1] the control points sit at q + s (d - q) and a thin-plate
 volume spline carries every bell point along.
 """
 
@@ -61,9 +62,10 @@ class Creature:
             raise ValueError(f"contraction must be a share of the cycle in (0, 1), got {self.contraction}")
 
 
-def anchors(shape: BellShape, box_half: float):
-    """The ten fixed points: corners and edge midpoints of the square domain, bell apexes on the axis."""
-    b = box_half
+def anchors(shape: BellShape, half: float):
+    """The ten fixed points: corners and edge midpoints of the square of half width ``half``
+    about the bell, bell apexes on the axis."""
+    b = half
     border = [(-b, -b), (0, -b), (b, -b), (b, 0), (b, b), (0, b), (-b, b), (-b, 0)]
     return np.array(border + [(0.0, shape.height), (0.0, shape.inner_height)], dtype=float)
 
@@ -87,8 +89,9 @@ def phase(t, contraction):
 class BellMap:
     """The space map of one creature: ``at(s)`` moves points to contraction phase s."""
 
-    def __init__(self, shape: BellShape, creature: Creature, box_half: float):
-        fixed = anchors(shape, box_half)
+    def __init__(self, shape: BellShape, creature: Creature, half: float):
+        """``half``: the anchors' square's half width (swimming takes the bell's diameter)."""
+        fixed = anchors(shape, half)
         q = mirrored(creature.controls)
         d = mirrored(creature.destinations)
         if len(q) != len(d):

@@ -189,3 +189,14 @@ def test_a_stop_is_honoured_within_a_substep():
 def test_a_count_of_cycles_that_is_not_a_whole_number_is_refused(cycles):
     with pytest.raises(ValueError, match="cycles"):
         simulate_cycles(default_creature(default_config()), default_config(particles=50), cycles)
+
+
+def test_the_swim_does_not_depend_on_how_much_water_there_is():
+    """The same stroke in a box twice as wide (the same spacing) or twice as tall swims its six
+    cycles within 3% (measured 0.5% and 0.06% here, 0.7% at 100 particles a side). With the
+    space map's anchors on the box's border the wider box swam 16% farther here, 23% less at 100."""
+    creature = default_creature(default_config())
+    base = simulate_cycles(creature, default_config(particles=50), 6).path_m
+    wide = simulate_cycles(creature, default_config(box=0.4, particles=100), 6).path_m
+    tall = simulate_cycles(creature, default_config(particles=50, box_height=0.4), 6).path_m
+    assert wide == pytest.approx(base, rel=0.03) and tall == pytest.approx(base, rel=0.03)
