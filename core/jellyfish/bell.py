@@ -5,8 +5,8 @@ subumbrella (lower), meeting at the margins. A creature moves k control points o
 right half (mirrored to the left) to destinations d_i; ten anchors stay put (the eight
 border points of a square about the bell and the two bell points on the axis, N = 10 + k as in
 the thesis; the thesis puts the square on the domain's box, which made the bell's deformation,
-and so its swim, depend on how much water it swims in). At phase s in [0, 1] the control points sit at q + s (d - q) and a thin-plate
-volume spline carries every bell point along.
+and so its swim, depend on how much water it swims in). At phase s in [0, 1] the control points
+sit at q + s (d - q) and a thin-plate volume spline carries every bell point along.
 """
 
 from dataclasses import dataclass
