@@ -21,7 +21,8 @@ IMG = Path(__file__).resolve().parent.parent / "docs" / "img"
 SUBSTEPS = (6, 10, 14, 20, 40)
 PARTICLES = (50, 76, 100, 150, 200)  # even: half of them out from the axis
 COURANT = (2.0, 1.0, 0.5, 0.25, 0.125)
-FORCING = (0, 1, 2, 4, 8, 16)
+FORCING = (0, 1, 2, 4, 8, 16)  # a fixed count (no tolerance)
+TOLERANCES = (0.05, 0.02, 0.01, 0.005, 0.001)  # corrections until the bell's velocity is met to this share
 
 
 def run(**changes):
@@ -77,8 +78,9 @@ def main():
     by_steps = sweep("substeps", SUBSTEPS, {"particles": 100})
     by_res = sweep("particles", PARTICLES, {"substeps": 14})
     by_cfl = sweep("cfl", COURANT, {"particles": 100, "substeps": 14})
-    by_forcing = sweep("forcing_corrections", FORCING, {"particles": 100, "substeps": 14})
-    for r in by_steps + by_res + by_cfl + by_forcing:
+    by_forcing = sweep("forcing_corrections", FORCING, {"particles": 100, "substeps": 14, "forcing_tolerance": None})
+    by_tolerance = sweep("forcing_tolerance", TOLERANCES, {"particles": 100, "substeps": 14, "forcing_corrections": 64})
+    for r in by_steps + by_res + by_cfl + by_forcing + by_tolerance:
         print(r, flush=True)
     vorticity_sheet()
     text = "\n".join([
@@ -92,9 +94,12 @@ def main():
         table(["particles", *head[1:]], by_res), "",
         "### Against the Courant number of the inner steps (100 x 100 particles, 14 substeps; 1 is the default)",
         "", table(["Courant number", *head[1:]], by_cfl), "",
-        "### Against GMRES corrections of the bell's velocity after each inner step's projection (100 x 100, "
-        f"Courant 1; {default_config().forcing_corrections} is the default, 0 imposes and projects once)", "",
+        "### Against a fixed count of GMRES corrections of the bell's velocity after each inner step's projection "
+        "(100 x 100, Courant 1; 0 imposes and projects once)", "",
         table(["corrections", *head[1:]], by_forcing), "",
+        "### Against the tolerance the corrections meet the bell's velocity to (root mean square, a share of its "
+        f"fastest speed; 100 x 100, Courant 1; {default_config().forcing_tolerance} is the default)", "",
+        table(["tolerance", *head[1:]], by_tolerance), "",
         "![vorticity through one cycle](img/jellyfish_vorticity.png)", "",
         "Vorticity through one cycle (8 frames, left to right; red clockwise, blue anticlockwise, the bell "
         "black), 100 x 100 particles.",

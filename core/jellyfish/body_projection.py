@@ -40,15 +40,21 @@ class Projected:
     p: np.ndarray
     speed: float  # the body's solved speed along its free axis (0 without one)
     miss: float  # largest |u - body velocity| over the body's particles, m/s
+    corrections: int = 0  # GMRES iterations taken (projections after the first)
 
 
-def project_with_body(project, u, body: ImposedBody, volume, corrections: int) -> Projected:
+def project_with_body(project, u, body: ImposedBody, volume, corrections: int, tolerance: float | None = None
+                      ) -> Projected:
     """``u`` off the body with the body's velocity on it, projected, then ``corrections`` GMRES
     iterations towards the divergence-free field whose values on the body are the body's, in
-    ``corrections`` + 1 projections. ``project(field) -> (field, pressure)`` must be linear
-    (sides at rest)."""
+    ``corrections`` + 1 projections. With ``tolerance``, the iterations stop once the body's
+    values miss by at most that share of the fastest speed imposed on it (root mean square over
+    its particles), ``corrections`` then the most they may take. ``project(field) -> (field,
+    pressure)`` must be linear (sides at rest)."""
     if int(corrections) != corrections or corrections < 0:
         raise ValueError(f"corrections must be a whole number >= 0, got {corrections}")
+    if tolerance is not None and not (np.isfinite(tolerance) and tolerance > 0):
+        raise ValueError(f"tolerance must be a share > 0 of the body's speed (or None), got {tolerance}")
     mask = np.asarray(body.mask, bool)
     k = int(mask.sum())
     free = body.free_axis
@@ -67,7 +73,9 @@ def project_with_body(project, u, body: ImposedBody, volume, corrections: int) -
     field[mask] = target
     u0, p0 = project(field)
     split = _MomentumSplit(vol, free)
-    fields, y = _gmres(project, mask, split, (target - u0[mask]).ravel(), int(corrections))
+    # in the residual's units: a root mean square miss over the body's 2k values
+    enough = None if tolerance is None else tolerance * float(np.abs(target).max(initial=0.0)) * np.sqrt(2 * k)
+    fields, y = _gmres(project, mask, split, (target - u0[mask]).ravel(), int(corrections), enough)
     u_out, p_out, speed = u0.copy(), p0.copy(), speed0
     for coef, (z, pu, pp) in zip(y, fields, strict=False):
         u_out += coef * pu
@@ -76,7 +84,7 @@ def project_with_body(project, u, body: ImposedBody, volume, corrections: int) -
     miss_vec = own - u_out[mask]
     if free is not None:
         miss_vec[:, free] += speed
-    return Projected(u_out, p_out, float(speed), float(np.abs(miss_vec).max(initial=0.0)))
+    return Projected(u_out, p_out, float(speed), float(np.abs(miss_vec).max(initial=0.0)), len(fields))
 
 
 class _MomentumSplit:
@@ -102,12 +110,13 @@ class _MomentumSplit:
         return 0.0 if self.free is None else float(self.normal @ z) / np.sqrt(self.k)
 
 
-def _gmres(project, mask, split, residual, iterations):
+def _gmres(project, mask, split, residual, iterations, enough=None):
     """GMRES on z -> P(E dg(z)) on the body - dU(z) e_free, from the residual of the plain
     projection, keeping each basis vector's projected field so that the answer costs no further
-    projection. Returns [(z, P E dg(z), its pressure), ...] and the basis vectors' coefficients."""
+    projection; at most ``iterations``, fewer once the residual's norm is at most ``enough``.
+    Returns [(z, P E dg(z), its pressure), ...] and the basis vectors' coefficients."""
     beta = float(np.linalg.norm(residual))
-    if iterations == 0 or beta == 0.0:
+    if iterations == 0 or beta == 0.0 or (enough is not None and beta <= enough):
         return [], []
     k, n = int(mask.sum()), len(mask)
     qs = [residual / beta]
@@ -130,6 +139,13 @@ def _gmres(project, mask, split, residual, iterations):
         if h[j + 1, j] <= 1e-13 * beta:  # the answer lies in the space already spanned
             h = h[:j + 2, :j + 1]
             break
+        if enough is not None:  # the residual of the small least-squares problem is GMRES's own
+            sub = h[:j + 2, :j + 1]
+            rhs = np.zeros(j + 2)
+            rhs[0] = beta
+            coef = np.linalg.lstsq(sub, rhs, rcond=None)[0]
+            if np.linalg.norm(sub @ coef - rhs) <= enough:
+                return fields, coef
         qs.append(a / h[j + 1, j])
     rhs = np.zeros(h.shape[0])
     rhs[0] = beta

@@ -96,7 +96,8 @@ class LatticeFluid:
     """Velocity on an nx x ny lattice of particles filling ``box``; ``step(dt)`` advances it."""
 
     def __init__(self, box: Box, nx: int, ny: int | None = None, viscosity=1e-6, density=1000.0,
-                 body_force=(0.0, 0.0), re_factor=2.1, cfl=1.0, pressure_solver="auto", forcing_corrections=1):
+                 body_force=(0.0, 0.0), re_factor=2.1, cfl=1.0, pressure_solver="auto", forcing_corrections=1,
+                 forcing_tolerance=None):
         ny = nx if ny is None else ny
         if nx < 4 or ny < 4:
             raise ValueError(f"the lattice needs at least 4 x 4 particles, got {nx} x {ny}")
@@ -112,6 +113,10 @@ class LatticeFluid:
         if int(forcing_corrections) != forcing_corrections or forcing_corrections < 0:
             raise ValueError(f"forcing_corrections must be a whole number >= 0, got {forcing_corrections}")
         self.forcing_corrections = int(forcing_corrections)
+        if forcing_tolerance is not None and not (np.isfinite(forcing_tolerance) and forcing_tolerance > 0):
+            raise ValueError(f"forcing_tolerance must be a share > 0 of the body's speed (or None), "
+                             f"got {forcing_tolerance}")
+        self.forcing_tolerance = forcing_tolerance
         if pressure_solver not in ("auto", "spectral", "direct", "krylov"):
             raise ValueError("pressure_solver is 'auto', 'spectral', 'direct' or 'krylov'")
         if pressure_solver == "spectral" and not all(box.periodic):
@@ -142,6 +147,7 @@ class LatticeFluid:
         self._viscous = {}
         self._pressure = None
         self.forcing_miss = 0.0  # the last step's largest |u - body velocity| on a forced body, m/s
+        self.forcing_taken = []  # GMRES corrections each forced inner step took
         self.timings = {"advect_s": 0.0, "viscous_s": 0.0, "pressure_s": 0.0}
 
     # --- values at ghosts -------------------------------------------------------------
@@ -219,8 +225,10 @@ class LatticeFluid:
             # from which the next advection makes momentum that a free body's momentum balance then
             # takes from the body (a bell swimming backwards)
             body = forcing.body(self.time + dt)
-            out = project_with_body(lambda f: self._project(f, dt), u, body, self.volume, self.forcing_corrections)
+            out = project_with_body(lambda f: self._project(f, dt), u, body, self.volume, self.forcing_corrections,
+                                    self.forcing_tolerance)
             u, self.p, self.forcing_miss = out.u, out.p, out.miss
+            self.forcing_taken.append(out.corrections)
             forcing.moved(u, dt)
         self.u = u
         t3 = time.perf_counter()

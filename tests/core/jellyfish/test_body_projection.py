@@ -102,3 +102,41 @@ def test_bad_corrections_are_refused():
     f, u, disc, own = disc_in_a_swirl(8)
     with pytest.raises(ValueError, match="corrections"):
         project_with_body(lambda v: f._project(v, 0.01), u, ImposedBody(disc, own), f.volume, -1)
+    with pytest.raises(ValueError, match="tolerance"):
+        project_with_body(lambda v: f._project(v, 0.01), u, ImposedBody(disc, own), f.volume, 4, tolerance=0.0)
+
+
+@pytest.mark.parametrize("free", [None, 1])
+def test_corrections_stop_at_the_tolerance_and_no_sooner(free):
+    """To a tolerance, the corrections stop at the first GMRES iteration whose field meets the
+    body's velocity to that share of its fastest speed imposed (root mean square over the body's
+    values, measured on the field returned): the same field as that many fixed corrections, one
+    fewer not meeting it; a tighter tolerance takes more and lands nearer the dense answer."""
+    f, u, disc, own = disc_in_a_swirl()
+    momentum = float(u[:, 1] @ f.volume)
+    body = ImposedBody(disc, own, free_axis=free, momentum=momentum)
+    project = lambda v: f._project(v, 0.01)  # noqa: E731
+    exact_u, _ = dense_answer(f, u, body, 0.01)
+    # the fastest speed imposed: the body's own motion, plus the free speed its momentum asks at first
+    target = own.copy()
+    if free is not None:
+        vol, off = f.volume[disc], np.where(disc, 0.0, u[:, free])
+        target[:, free] += (momentum - off @ f.volume - own[:, free] @ vol) / vol.sum()
+    scale = np.abs(target).max()
+
+    def rms_miss(r):
+        wanted = own.copy()
+        if free is not None:
+            wanted[:, free] += r.speed
+        return np.sqrt(np.mean((r.u[disc] - wanted) ** 2))
+
+    taken, errors = [], []
+    for tolerance in (0.05, 0.005):
+        r = project_with_body(project, u, body, f.volume, 40, tolerance=tolerance)
+        same = project_with_body(project, u, body, f.volume, r.corrections)
+        fewer = project_with_body(project, u, body, f.volume, r.corrections - 1)
+        np.testing.assert_allclose(r.u, same.u, atol=1e-12)
+        assert rms_miss(r) <= tolerance * scale * (1 + 1e-9) < rms_miss(fewer)
+        taken.append(r.corrections)
+        errors.append(np.abs(r.u - exact_u).max())
+    assert 0 < taken[0] < taken[1] < 40 and errors[1] < errors[0]
