@@ -120,7 +120,7 @@ def scene_arrays(depsgraph, layered=True):
     if layered:
         top = max((lay for lay in layers if lay is not None), default=0)
         probe = body_probes(objects, layers, probe_distances(settings, parts is not None), parts, scheme,
-                            traced=[lay is not None and lay < top for lay in layers])
+                            traced=[lay is not None and lay < top for lay in layers], gap=settings.offset)
     made, kept = layered_scene(objects, layers, normals, probe, settings.offset,
                                keep=depsgraph.scene.render.use_persistent_data)
     return made, materials, slots, uvs, shading, pass_index, kept, warnings, (unseen, shadowless, unreflected,

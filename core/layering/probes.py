@@ -1,6 +1,6 @@
 """How far probe rays look (l_s, thesis Fig. 4.5) and which body part's triangles they meet: one
-rule for the resolve (``probe_reach``) and for the DeformRT Layered render engine
-(``body_probes``). Both take each part's l_s from BodyFacts.probe_lengths (the part's median
+rule for the resolve (``probe_reach``, ``widened``) and for the DeformRT Layered render engine
+(``body_probes``), both widening a part's reach where loose cloth hangs (``widen``). Both take each part's l_s from BodyFacts.probe_lengths (the part's median
 radius, a skirt's its linked parts' farthest, overrides per part) or, without parts, the body's
 radius under each point. The resolve reads a garment vertex's part at its nearest body surface
 point (found once per garment and kept); the engine, for every object of every frame, at its
@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..geometry.keys import digest
+from ..geometry.vectors import norms, rows, size_of
 from .body_facts import body_facts, frozen
 from .segmentation import get_scheme, is_skirt, skirt_segments
 
@@ -64,13 +65,7 @@ def widened(reach: ProbeReach, prep, params, gap: float) -> ProbeReach:
     lower = prep.active[:-1]  # the outermost layer sends no probe
     dist = np.concatenate([prep.corr[i].distance for i in lower])
     part = np.concatenate([prep.vseg[i] for i in lower])
-    given = params.probe_given
-    per = reach.per_segment.copy()
-    for s in np.unique(part):
-        if given is not None and not np.isnan(given[s]):
-            continue
-        need = float(dist[part == s].max()) + gap
-        per[s] = min(max(per[s], need), WIDEST * per[s])
+    per = widen(reach.per_segment, dist, part, params.probe_given, gap)
     if np.array_equal(per, reach.per_segment):
         return reach
     for i in prep.active:
@@ -79,7 +74,21 @@ def widened(reach: ProbeReach, prep, params, gap: float) -> ProbeReach:
     return ProbeReach(per, reach.radius, reach.local, reach.junctions)
 
 
-def body_probes(objects, layers, given=None, parts=None, scheme=None, traced=None):
+def widen(per_segment, distance, part, given, gap) -> np.ndarray:
+    """``per_segment`` (l_s per part id) with each part that keeps its default (NaN in ``given``, or
+    no ``given``) widened to the farthest ``distance`` from the body of the lower layers' points
+    of that part (``part`` per point) plus ``gap``, at most WIDEST times the default: the one rule
+    the resolve (``widened``) and the render engine (``body_probes``) take."""
+    per = np.array(per_segment, dtype=np.float64, copy=True)
+    for s in np.unique(part):
+        if given is not None and not np.isnan(given[s]):
+            continue
+        need = float(distance[part == s].max()) + gap
+        per[s] = min(max(per[s], need), WIDEST * per[s])
+    return per
+
+
+def body_probes(objects, layers, given=None, parts=None, scheme=None, traced=None, gap=None):
     """l_s per vertex as the resolve takes it: ``given`` (one distance, or one per part with
     NaN where the part keeps its default) or else the body's radius (half its thickness
     straight through), each part's median when the body has ``parts`` (one id per body vertex)
@@ -89,7 +98,10 @@ def body_probes(objects, layers, given=None, parts=None, scheme=None, traced=Non
     segment's l_s on the legs, as in the resolve (BodyFacts.probe_lengths: its linked parts'
     farthest reach, or its override). Objects outside the layering, or all of them when there
     is no body, keep the default (None), as do those whose ``traced`` (one bool per object) is
-    False: the outermost layer, which nothing is worn over, sends no probe."""
+    False: the outermost layer, which nothing is worn over, sends no probe. With parts, each part
+    keeping its default widens as the resolve's does (``widen``: to its lower layers' farthest
+    point plus ``gap``, default the resolve's default offset), the distance taken to the nearest
+    body vertex (at most an edge farther than the nearest surface point the resolve measures)."""
     if given is not None and np.ndim(given) == 0:
         return float(given)
     if given is not None and parts is None:
@@ -113,14 +125,16 @@ def body_probes(objects, layers, given=None, parts=None, scheme=None, traced=Non
         count = max(int(parts.max(initial=-1)) + 1, 0 if given is None else len(given))
         links = np.eye(count, dtype=bool)
     per_part = facts.probe_lengths(parts, count, links, given)
-    out = []
-    for found in nearest:
-        if found is None:
-            out.append(None)
-            continue
-        at, skirt = found
-        out.append(per_part[skirt_segments(parts[at], scheme) if skirt else parts[at]])
-    return out
+    part_of = [None if found is None else skirt_segments(parts[found[0]], scheme) if found[1] else parts[found[0]]
+               for found in nearest]
+    # as the resolve: only cloth worn under another garment widens its part's reach
+    top = max((lay for lay in layers if lay is not None), default=0)
+    lower = [i for i, found in enumerate(nearest) if found is not None and i != body and 0 < layers[i] < top]
+    if lower:
+        gap = 1e-3 * size_of(facts.vertices) if gap is None or gap <= 0 else float(gap)
+        distance = np.concatenate([norms(objects[i][0] - rows(facts.vertices, nearest[i][0])) for i in lower])
+        per_part = widen(per_part, distance, np.concatenate([part_of[i] for i in lower]), given, gap)
+    return [None if p is None else per_part[p] for p in part_of]
 
 
 def nearest_part(facts, vertices, faces, parts, scheme):

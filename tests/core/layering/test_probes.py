@@ -2,6 +2,7 @@
 
 import numpy as np
 import trimesh
+from scipy.spatial import cKDTree
 
 from core.layering import probes, resolve_layers
 from sample_scenes.shapes import tube
@@ -51,3 +52,28 @@ def test_a_thin_parts_reach_widens_to_its_lower_layers_farthest_point(monkeypatc
     given = resolve_layers(body, trousers, body_segments=parts, scheme="S5", probe_distance=0.02)
     assert given.stats["probe_distance"][4] == 0.02
 
+
+
+def test_the_render_engine_reaches_as_far_as_the_resolve():
+    """One rule: on the thin leg in loose trousers the render engine's probes (nearest body vertex)
+    take the part's reach the resolve takes (nearest surface point), widened the same way, within
+    the body's longest edge (the two nearest points' distances differ by less); the right leg
+    (no cloth) and the torso keep their radius in both; a reach the caller gave is the reach."""
+    body, parts = _thin_legged()
+    trousers = _loose_trousers()
+    resolved = resolve_layers(body, trousers, body_segments=parts, scheme="S5")
+    reach = resolved.stats["probe_distance"]
+    objects = [(body.vertices, body.faces)] + [(t.vertices, t.faces) for t in trousers]
+    engine = probes.body_probes(objects, [0, 1, 2], parts=parts, scheme="S5", traced=[True, True, False],
+                                gap=resolved.stats["offset"])
+    # how much farther a trouser point's nearest body vertex is than its nearest surface point
+    # (trimesh's exact closest points and a k-d tree: the references)
+    _, surface, _ = trimesh.proximity.closest_point(body, trousers[0].vertices)
+    vertex = cKDTree(body.vertices).query(trousers[0].vertices)[0]
+    np.testing.assert_allclose(engine[1], reach[4], atol=(vertex - surface).max() + 1e-9)  # the left leg's
+    assert engine[1].min() > 1.3 * resolved.stats["probe_distance"][3]  # widened past the leg's radius
+    np.testing.assert_allclose(engine[0][parts == 3], reach[3], rtol=1e-9)
+    np.testing.assert_allclose(engine[0][parts == 0], reach[0], rtol=1e-9)
+    given = probes.body_probes(objects, [0, 1, 2], given=np.full(len(reach), 0.02), parts=parts, scheme="S5",
+                               traced=[True, True, False])
+    np.testing.assert_array_equal(given[1], 0.02)
