@@ -1,11 +1,12 @@
 """How far probe rays look (l_s, thesis Fig. 4.5) and which body part's triangles they meet: one
 rule for the resolve (``probe_reach``, ``widened``) and for the DeformRT Layered render engine
-(``body_probes``), both widening a part's reach where loose cloth hangs (``widen``). Both take each part's l_s from BodyFacts.probe_lengths (the part's median
-radius, a skirt's its linked parts' farthest, overrides per part) or, without parts, the body's
-radius under each point. The resolve reads a garment vertex's part at its nearest body surface
-point (found once per garment and kept); the engine, for every object of every frame, at its
-nearest body vertex (a k-d tree query), the same part but at part borders, where a probe meets
-both parts' triangles anyway (the segment margin)."""
+(``body_probes``), both widening a part's reach where loose cloth hangs (``widen``). Both take
+each part's l_s from BodyFacts.probe_lengths (the part's median radius, a skirt's its linked
+parts' farthest, overrides per part) or, without parts, the body's radius under each point. The
+resolve reads a garment vertex's part at its nearest body surface point (found once per garment
+and kept); the engine, for every object of every frame, at its nearest body vertex (a k-d tree
+query), the same part but at part borders, where a probe meets both parts' triangles anyway
+(the segment margin)."""
 
 from __future__ import annotations
 
