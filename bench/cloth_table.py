@@ -95,7 +95,7 @@ def main(argv=None):
     ap.add_argument("--sizes", default="512,2048,8192,32768", help="triangles per sheet")
     ap.add_argument("--layers", default="1,2,3,4")
     ap.add_argument("--long", type=int, default=0, help="also run 4 sheets x 2,048 for this many frames (the "
-                    "seed ran 500)")
+                    "dissertation ran 500)")
     ap.add_argument("--no-write", action="store_true")
     args = ap.parse_args(argv)
     load_package()
@@ -148,7 +148,7 @@ def main(argv=None):
                  f"{int((sa > sb).sum())} frames with more after.")
     if not args.no_write:
         plot(series, args.frames)
-        write_section("cloth_table", "Dynamic cloth: thesis Table 4.1 on falling sheets", body
+        write_section("cloth_table", "Dynamic cloth: the dissertation's Table 4.1 on falling sheets", body
                       + "\n\nPer-frame correction time: docs/img/cloth_table.png (like the thesis' Fig. 4.16).")
     print(body)
 
