@@ -17,6 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
+from bench.blender import load_package
+
 ROOT = Path(__file__).resolve().parent.parent
 CAPTION_SCALE = 3  # the 3 x 5 font, three pixels a dot: 15 px letters
 BAND = 8 * CAPTION_SCALE  # the caption band's height over each panel
@@ -69,18 +71,8 @@ def picture(name, out):
     return np.concatenate([captioned(read_png(out / file), caption) for file, caption in panels], axis=1)
 
 
-def _load_package():
-    # the package as Blender loads it (relative imports), with bpy from this Python
-    import importlib.util
-    spec = importlib.util.spec_from_file_location("deformrt", ROOT / "__init__.py",
-                                                  submodule_search_locations=[str(ROOT)])
-    pkg = importlib.util.module_from_spec(spec)
-    sys.modules["deformrt"] = pkg
-    spec.loader.exec_module(pkg)
-
-
 def main(args):
-    _load_package()
+    load_package()
     from deformrt.addon.io.image_io import write_png
     again = "--compose-only" not in args  # --compose-only: from what the commands wrote last time
     for name in [a for a in args if not a.startswith("--")] or PICTURES:

@@ -74,7 +74,8 @@ class DEFORMRT_OT_optimize_jellyfish(_NeedsJellyfish, BackgroundOperator, bpy.ty
                                      "is rounded up)", default=100, min=20, max=400)
     water: bpy.props.EnumProperty(name="Water", items=WATERS, default="axisymmetric")
     viscosity: bpy.props.FloatProperty(
-        name="Water Viscosity", default=default_config().viscosity, min=1e-7, max=1e-2, precision=7, step=0.0001,
+        name="Water Viscosity", default=default_config().viscosity, min=jellyfish.VISCOSITY[0],
+        max=jellyfish.VISCOSITY[1], precision=7, step=0.0001,
         description="How thick the water is, in m²/s. The default, ten times water's, swims as a 3 cm medusa does "
         "in water (the same Reynolds number); water's own 0.000001 needs a finer lattice than Resolution gives, "
         "and the path it finds then depends on the lattice")
@@ -108,15 +109,13 @@ class DEFORMRT_OT_optimize_jellyfish(_NeedsJellyfish, BackgroundOperator, bpy.ty
         if bell is None:
             return self.fail(RuntimeError("The jellyfish was deleted while optimizing"))
         config = job["config"]
-        jellyfish.store_stroke(bell, result, config)
+        stored = jellyfish.store_stroke(bell, result, config)
         how = {"cancelled": "stopped early, kept the best", "agreement": "the strokes tried agreed",
                "generations": "all generations tried", "budget": "all trials spent"}.get(result.stopped, result.stopped)
-        cycles = len(result.cycle.path_per_cycle_m)
-        per_cycle = result.cycle.path_m / cycles / config.bell.diameter
         default = result.scales.path / config.cycles / config.bell.diameter
-        energy = 100 * result.cycle.energy_loss / result.scales.energy
-        self.report({"INFO"}, f"Best stroke: {per_cycle:.3f} bell diameters a cycle (the default stroke "
-                              f"{default:.3f}), wake energy {energy:.0f}% of the default's "
+        self.report({"INFO"}, f"Best stroke: {stored['diameters_per_cycle']:.3f} bell diameters a cycle (the "
+                              f"default stroke {default:.3f}), wake energy {100 * stored['energy_share']:.0f}% of "
+                              f"the default's "
                               f"({result.evaluations} trial cycles in {result.seconds:.0f} s, {how})")
         return {"FINISHED"}
 

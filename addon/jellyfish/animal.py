@@ -111,11 +111,11 @@ def jellyfish_of(obj):
     return obj
 
 
-def store_stroke(bell, result, config):
-    """Keep an optimisation's best creature and its cycle on the bell."""
+def store_stroke(bell, result, config) -> dict:
+    """Keep an optimisation's best creature and its cycle on the bell; returns what was kept."""
     c = result.creature
     cycles = max(len(result.cycle.path_per_cycle_m), 1)
-    bell[PROP_STROKE] = json.dumps({
+    stored = {
         # what the panel says: bell diameters a cycle, and the wake's energy against the default stroke's
         "diameters_per_cycle": result.cycle.path_m / cycles / config.bell.diameter,
         "energy_share": result.cycle.energy_loss / result.scales.energy,
@@ -123,7 +123,9 @@ def store_stroke(bell, result, config):
         "stopped": result.stopped, "controls": c.controls.tolist(), "destinations": c.destinations.tolist(),
         "contraction": c.contraction, "path_m": result.cycle.path_m, "speed": result.cycle.speed.tolist(),
         "period": config.period, "particles": config.particles, "fluid": config.fluid, "viscosity": config.viscosity,
-        "weights": list(config.weights)})
+        "weights": list(config.weights)}
+    bell[PROP_STROKE] = json.dumps(stored)
+    return stored
 
 
 # Optimize Stroke's Resolution allows 20-400 particles a side (an odd count rounded up); a stroke

@@ -147,7 +147,7 @@ class LatticeFluid:
         self._viscous = {}
         self._pressure = None
         self.forcing_miss = 0.0  # the last step's largest |u - body velocity| on a forced body, m/s
-        self.forcing_taken = []  # GMRES corrections each forced inner step took
+        self.forcing_taken = 0  # the last step's GMRES corrections on a forced body
         self.timings = {"advect_s": 0.0, "viscous_s": 0.0, "pressure_s": 0.0}
 
     # --- values at ghosts -------------------------------------------------------------
@@ -228,7 +228,7 @@ class LatticeFluid:
             out = project_with_body(lambda f: self._project(f, dt), u, body, self.volume, self.forcing_corrections,
                                     self.forcing_tolerance)
             u, self.p, self.forcing_miss = out.u, out.p, out.miss
-            self.forcing_taken.append(out.corrections)
+            self.forcing_taken = out.corrections
             forcing.moved(u, dt)
         self.u = u
         t3 = time.perf_counter()

@@ -80,6 +80,10 @@ def _shell_gap(shells, n_garments) -> float:
     return float(shells[:-1].max(initial=0.0))
 
 
+
+# The offset d when none is asked, as a share of the body's size (about 2 mm on a person)
+OFFSET_SHARE = 1e-3
+
 @dataclass(frozen=True)
 class LayeringParameters:
     """Everything a resolve was asked, checked, in the units of the scene."""
@@ -145,7 +149,7 @@ class LayeringParameters:
         diag = size_of(bv)  # turning the scene must not change the defaults taken from it
         if diag <= 0:
             raise ValueError("body has zero size")
-        d = float(params.get("offset", 1e-3 * diag))
+        d = float(params.get("offset", OFFSET_SHARE * diag))
         if not np.isfinite(d) or d < 0:
             raise ValueError(f"offset must be a finite distance >= 0, got {d}")
         if d > MAX_OFFSET * diag:  # a gap wider than a limb: a typo or a unit mix-up, never a layer

@@ -17,6 +17,7 @@ import numpy as np
 from ..geometry.keys import digest
 from ..geometry.vectors import norms, rows, size_of
 from .body_facts import body_facts, frozen
+from .parameters import OFFSET_SHARE
 from .segmentation import get_scheme, is_skirt, skirt_segments
 
 
@@ -132,7 +133,7 @@ def body_probes(objects, layers, given=None, parts=None, scheme=None, traced=Non
     top = max((lay for lay in layers if lay is not None), default=0)
     lower = [i for i, found in enumerate(nearest) if found is not None and i != body and 0 < layers[i] < top]
     if lower:
-        gap = 1e-3 * size_of(facts.vertices) if gap is None or gap <= 0 else float(gap)
+        gap = OFFSET_SHARE * size_of(facts.vertices) if gap is None or gap <= 0 else float(gap)
         distance = np.concatenate([norms(objects[i][0] - rows(facts.vertices, nearest[i][0])) for i in lower])
         per_part = widen(per_part, distance, np.concatenate([part_of[i] for i in lower]), given, gap)
     return [None if p is None else per_part[p] for p in part_of]

@@ -100,16 +100,14 @@ def _cmd_demo(args) -> int:
     poke_after = metrics.poke_through(layers_after, cameras=cams)[0]
 
     sec = report.seconds
-    parts = report.parts
-    if parts.startswith("attribute "):  # the sample figures' stored parts, by their attribute's name
-        parts = "the figure's stored body parts"
     lines = [
         f"# DeformRT demo: {scene.name}",
         "",
         f"**Poke-through: {100 * poke_before:.2f}% before, {100 * poke_after:.2f}% after** (of the garments' "
         f"pixels over 8 views round the figure, those where a lower layer shows in front of a higher one). "
         f"Crossing edges between the garments: {int(np.triu(cross_before).sum()):,} before, "
-        f"{int(np.triu(cross_after).sum()):,} after. Resolved in {sec['total_s']:.2f} s (body parts from {parts}).",
+        f"{int(np.triu(cross_after).sum()):,} after. Resolved in {sec['total_s']:.2f} s "
+        f"(body parts from {report.parts}).",
         "",
         "Renders: before.png (as fitted one by one), after.png (resolved; the garments' meshes are unchanged, "
         "a DeformRT modifier shows the result). scene.blend: the resolved scene, to open in Blender.",
