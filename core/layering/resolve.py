@@ -15,6 +15,7 @@ import time
 import numpy as np
 import trimesh
 
+from ..geometry.normals import face_normals
 from .body_facts import body_facts
 from .body_guard import keep_out_of_body
 from .body_lift import lift_off_body
@@ -122,9 +123,12 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
             stack.moved(k, out)
             stack.moved_by["relaxed"] += drawn
     n_eased = 0
+    # how the cloth turned since: as the body triangle under each point did
+    body_turn = face_normals(bv, bf)
     if previous is not None and previous.history is not None:  # no jolt from the last frames
         for k in stack.active:
-            smoothed, count = eased(stack.verts[k], garr[k][0], k, previous.history, p.offset)
+            smoothed, count = eased(stack.verts[k], garr[k][0], k, previous.history, p.offset,
+                                    prep.corr[k].triangle, body_turn)
             if count:
                 n_eased += count
                 stack.moved(k, smoothed)
@@ -148,7 +152,8 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
                             prep.complete if len(prep.active) < len(garr) else None)
     result.frames_clear, result.frames_shown = clear, shown
     result.lifts = lifts
-    result.history = History(moved, [v for v, _ in garr], previous.history if previous is not None else None)
+    result.history = History(moved, [v for v, _ in garr], body_turn,
+                             previous.history if previous is not None else None)
     result.body_radius = facts.radius_found
     result.body_junctions = facts.junctions_found()
     return result

@@ -242,3 +242,57 @@ def test_no_face_is_hidden_or_shown_for_a_single_frame():
             assert out[t][face] == hide, (face, t)
             shown_run = 0 if hide else (min(shown_run + 1, 2) if t else 2)  # shown from the start: not "just"
             hidden_before = hide
+
+
+def test_a_vector_is_turned_by_the_least_rotation_between_two_normals():
+    """Against scipy's rotation about a x b by the angle between them; opposite or zero normals
+    leave the vector as it is."""
+    from scipy.spatial.transform import Rotation
+
+    from core.layering.frame_coherence import turned
+
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=(200, 3))
+    b = a + rng.normal(scale=0.6, size=(200, 3))
+    a /= np.linalg.norm(a, axis=1)[:, None]
+    b /= np.linalg.norm(b, axis=1)[:, None]
+    d = rng.normal(size=(200, 3))
+    axis = np.cross(a, b)
+    angle = np.arctan2(np.linalg.norm(axis, axis=1), np.einsum("ij,ij->i", a, b))
+    keep = np.einsum("ij,ij->i", a, b) > -0.9
+    rotvec = axis / np.linalg.norm(axis, axis=1)[:, None] * angle[:, None]
+    want = Rotation.from_rotvec(rotvec[keep]).apply(d[keep])
+    np.testing.assert_allclose(turned(d, a, b)[keep], want, atol=1e-12)
+    assert keep.sum() > 150
+    flat = np.zeros((2, 3))
+    np.testing.assert_array_equal(turned(d[:2], np.stack([a[0], a[1]]), np.stack([-a[0], flat[1]])), d[:2])
+
+
+def test_a_lift_that_turns_with_the_cloth_eases_along_the_cloth_not_across_it():
+    """A cloth point on the axis a body patch turns about (it does not move; the patch's normal
+    turns 30 degrees a frame) lifted 10 mm along that normal for two frames, 5 mm the third: turned
+    with the body, the constant-velocity prediction is 10 mm along this frame's normal, so the
+    eased correction is along this normal, JERK offsets shorter than 10 mm. Kept in world space, the last corrections
+    point 30 and 60 degrees away and the bounded step toward this frame's goes sideways (a lift
+    that never came down in a turning limb)."""
+    from scipy.spatial.transform import Rotation
+
+    from core.geometry.normals import face_normals
+    from core.layering.frame_coherence import JERK, History, eased
+
+    ring = np.array([[np.cos(t), np.sin(t), 0.0] for t in np.linspace(0, 2 * np.pi, 8, endpoint=False)]) * 0.02
+    rest = np.vstack([[0.0, 0.0, 0.0], ring])
+    faces = np.array([[0, 1 + i, 1 + (i + 1) % 8] for i in range(8)])
+    offset = 0.002
+    history = None
+    for frame, lift in enumerate((0.010, 0.010, 0.005)):
+        posed = Rotation.from_euler("x", 30 * frame, degrees=True).apply(rest)
+        body_normals = face_normals(posed, faces)  # the cloth lies on this patch of body, on face 3
+        on = np.full(len(posed), 3)
+        resolved = posed + lift * body_normals[on]
+        if history is not None:
+            out, count = eased(resolved, posed, 0, history, offset, on, body_normals)
+            resolved = out if count else resolved
+        history = History([resolved - posed], [posed], body_normals, history)
+    d = resolved[0] - posed[0]
+    np.testing.assert_allclose(d, (0.010 - JERK * offset) * body_normals[3], atol=1e-12)
