@@ -145,14 +145,15 @@ def clear_artist_work(objs):
 
 def measure_figure(name, render):
     bpy = _bpy()
-    dressed, layer_resolve = _sub("sample_scenes.dressed"), _sub("addon.layers.layer_resolve")
+    dressed, scene_read = _sub("sample_scenes.dressed"), _sub("addon.layers.scene_read")
+    part_tools = _sub("addon.layers.part_tools")
     studio = _sub("sample_scenes.studio")
     body, _, garments = getattr(dressed, name)()
     objs = [body, *garments]
     scene = bpy.context.scene
     fitted = evaluated(objs)
-    _, _, arrays, parts, _, _, _ = layer_resolve.read_scene(scene, "S5")
-    st = layer_resolve._correspondence_only(arrays, body_segments=parts, scheme="S5").stats
+    read = scene_read.read_scene(scene, "S5")
+    st = part_tools.found_without_moves(read.arrays, body_segments=read.parts, scheme="S5").stats
     l_s, d = float(np.median(st["probe_distance"])), float(st["offset"])
     cams = metrics.camera_ring(*metrics.layer_bounds(fitted), views=8, resolution=128)
 

@@ -31,7 +31,7 @@ def measure(frames, samples, size, runs):
     """{samples: [(uncorrected render s, correction s, corrected render s), ...]} over frames x runs,
     and the cloth solver's seconds per frame (its bake)."""
     import bpy
-    from deformrt.addon.layers import frame_handler, layer_resolve
+    from deformrt.addon.layers import frame_handler, frame_memory, resolve_job, scene_read
     from deformrt.sample_scenes import sheets
 
     made, _ = sheets.build(layers=4, per_sheet=8192, frames=max(frames))
@@ -45,7 +45,7 @@ def measure(frames, samples, size, runs):
     scene.cycles.use_denoising = False
     scene.render.resolution_x = scene.render.resolution_y = size
     scene.render.resolution_percentage = 100
-    layer_resolve.forget_correspondence()
+    frame_memory.forget()
     scene.frame_set(1)
     frame_handler.correct_frame(scene)  # the correspondence of the first frame, as playback finds it
     out = {s: [] for s in samples}
@@ -55,13 +55,13 @@ def measure(frames, samples, size, runs):
         for _ in range(runs):
             for f in frames:
                 scene.frame_set(f)
-                with layer_resolve.results_bypassed(made):
+                with scene_read.results_bypassed(made):
                     plain = _render_seconds()
                 t0 = time.perf_counter()
                 frame_handler.correct_frame(scene)
                 corr = time.perf_counter() - t0
                 out[s].append((plain, corr, _render_seconds()))
-    layer_resolve.clear_scene(scene)
+    resolve_job.clear_scene(scene)
     bpy.ops.ptcache.free_bake_all()
     return out, solver
 

@@ -22,7 +22,7 @@ DEPTH = 0.05
 
 
 def run(frames, probes, measured):
-    from deformrt.addon.layers import frame_handler, layer_resolve
+    from deformrt.addon.layers import frame_handler, frame_memory
     from deformrt.core.layering import metrics
 
     made, scene, _ = baked_sheets(4, 8192, frames)
@@ -30,7 +30,7 @@ def run(frames, probes, measured):
     rows = []
     for probe in probes:
         scene.deformrt.probe_distance = probe
-        layer_resolve.forget_correspondence()
+        frame_memory.forget()
         scene.frame_set(1)
         frame_handler.correct_frame(scene)
         acc = []

@@ -38,9 +38,9 @@ def corrected_frame(scene, made):
     path: (before, after, the resolve's summary, seconds the correction took)."""
     import bpy
     from deformrt.addon.io import mesh_io
-    from deformrt.addon.layers import frame_handler, layer_resolve
+    from deformrt.addon.layers import frame_handler, scene_read
 
-    with layer_resolve.results_bypassed(made):
+    with scene_read.results_bypassed(made):
         depsgraph = bpy.context.evaluated_depsgraph_get()
         before = [mesh_io.read_mesh(o, depsgraph) for o in made]
     t0 = time.perf_counter()
@@ -53,21 +53,21 @@ def corrected_frame(scene, made):
 def release(scene):
     """Take DeformRT's results off the scene and free the cloth bake."""
     import bpy
-    from deformrt.addon.layers import layer_resolve
+    from deformrt.addon.layers import resolve_job
 
-    layer_resolve.clear_scene(scene)
+    resolve_job.clear_scene(scene)
     bpy.ops.ptcache.free_bake_all()
 
 
 def run_case(layers, per_sheet, frames):
     from deformrt.addon.io import mesh_io
-    from deformrt.addon.layers import layer_resolve
+    from deformrt.addon.layers import frame_memory, scene_read
     from deformrt.core.layering import metrics
     from deformrt.core.rays import RayScene
 
     made, scene, bake_s = baked_sheets(layers, per_sheet, frames)
-    layer_resolve.forget_correspondence()
-    stage = mesh_io.read_mesh(layer_resolve.layered_objects(scene)[0])
+    frame_memory.forget()
+    stage = mesh_io.read_mesh(scene_read.layered_objects(scene)[0])
     stage_scene = RayScene(stage.vertices, stage.triangles)
 
     def through_stage(sheets):

@@ -6,7 +6,8 @@ import shutil
 import bpy
 
 from ..addon.io import blender_versions
-from ..addon.layers import frame_bake, layer_resolve, report, results, scene_roles
+from ..addon.layers import frame_bake, inspect_layers, part_tools, report, resolve_job, results, scene_roles
+from ..addon.layers.scene_read import layered_objects
 from .base import BackgroundOperator, DeformRTOperator
 
 
@@ -36,14 +37,14 @@ class DEFORMRT_OT_resolve_layers(BackgroundOperator, bpy.types.Operator):
         return True
 
     def prepare(self, context):
-        return layer_resolve.prepare_resolve(context.scene)
+        return resolve_job.prepare_resolve(context.scene)
 
     def work(self, job, progress, stop):
-        return layer_resolve.compute_resolve(job)
+        return resolve_job.compute_resolve(job)
 
     def finish(self, context, job, result):
         try:
-            summary = layer_resolve.finish_resolve(context.scene, job, result)
+            summary = resolve_job.finish_resolve(context.scene, job, result)
         except ReferenceError:
             return self.fail(RuntimeError("A garment was deleted while resolving: nothing written"))
         report.write(context.scene, summary.report())
@@ -104,7 +105,7 @@ class DEFORMRT_OT_auto_segment(DeformRTOperator, bpy.types.Operator):
 
     def execute(self, context):
         try:
-            message = layer_resolve.auto_segment(context.scene)
+            message = part_tools.auto_segment(context.scene)
         except (ValueError, RuntimeError) as exc:
             return self.fail(exc)
         self.report({"INFO"}, message)
@@ -125,7 +126,7 @@ class DEFORMRT_OT_transfer_normals(_NeedsGarments, DeformRTOperator, bpy.types.O
         if self.remove:
             return DEFORMRT_OT_remove_normals.execute(self, context)
         try:
-            message = layer_resolve.transfer_normals(context.scene)
+            message = part_tools.transfer_normals(context.scene)
         except (ValueError, RuntimeError) as exc:
             return self.fail(exc)
         self.report({"INFO"}, message)
@@ -140,7 +141,7 @@ class DEFORMRT_OT_remove_normals(_NeedsGarments, DeformRTOperator, bpy.types.Ope
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
-        n = layer_resolve.remove_normals(context.scene)
+        n = part_tools.remove_normals(context.scene)
         self.report({"INFO"}, f"Removed the stored directions of {n} garments" if n else "No stored directions")
         return {"FINISHED"}
 
@@ -153,7 +154,7 @@ class DEFORMRT_OT_clear_results(DeformRTOperator, bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
-        count = layer_resolve.clear_scene(context.scene)
+        count = resolve_job.clear_scene(context.scene)
         report.write(context.scene, None)
         self.report({"INFO"}, f"Cleared the result of {count} garment(s)" if count else "No results to clear")
         return {"FINISHED"}
@@ -169,7 +170,7 @@ class DEFORMRT_OT_bake_results(_NeedsGarments, DeformRTOperator, bpy.types.Opera
     def execute(self, context):
         scene = context.scene
         try:
-            body, garments = layer_resolve.layered_objects(scene)
+            body, garments = layered_objects(scene)
         except ValueError as exc:
             return self.fail(exc)
         made = results.bake(scene, [body, *garments], context.evaluated_depsgraph_get())
@@ -189,7 +190,7 @@ class DEFORMRT_OT_inspect_layers(_NeedsGarments, DeformRTOperator, bpy.types.Ope
 
     def execute(self, context):
         try:
-            found = layer_resolve.inspect_scene(context.scene)
+            found = inspect_layers.inspect_scene(context.scene)
         except (ValueError, RuntimeError) as exc:
             return self.fail(exc)
         report.write(context.scene, found)
@@ -254,7 +255,7 @@ class DEFORMRT_OT_bake_frames(_NeedsGarments, DeformRTOperator, bpy.types.Operat
             self.report({"ERROR"}, f"End frame {self.frame_end} is before start frame {self.frame_start}")
             return {"CANCELLED"}
         try:
-            body, garments = layer_resolve.layered_objects(scene)
+            body, garments = layered_objects(scene)
         except ValueError as exc:
             return self.fail(exc)
         if self.filepath.startswith("//") and not bpy.data.filepath:

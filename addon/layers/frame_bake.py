@@ -12,7 +12,7 @@ import sys
 import bpy
 
 from ..io import blender_versions
-from . import frame_handler, layer_resolve, results
+from . import frame_handler, frame_memory, resolve_job, results
 
 PARTIAL_SUFFIX = ".deformrt-partial.abc"
 
@@ -78,11 +78,11 @@ class FrameBake:
         self.was_on = scene.deformrt.resolve_on_frame_change
         self.frame = scene.frame_current
         self.shown = any(results.data_object(o) is not None for o in (body, *garments))
-        correspondence = layer_resolve.kept_correspondence() if self.was_on else {}
+        correspondence = frame_memory.kept_correspondence() if self.was_on else {}
         # the results shown now go (switching the handler off clears them); the correspondence
         # playback found stays, so the cache holds what was shown
         frame_handler.switch(scene, False)
-        layer_resolve.keep_correspondence(correspondence)
+        frame_memory.keep_correspondence(correspondence)
 
     @property
     def stop_reason(self) -> str | None:
@@ -139,15 +139,15 @@ class FrameBake:
         """The frame shown before, and what was shown on it: Resolve on Frame Change as it was
         (resolving this frame now), or the still resolve made again."""
         scene = self.scene
-        correspondence = layer_resolve.kept_correspondence()
+        correspondence = frame_memory.kept_correspondence()
         frame_handler.switch(scene, False)  # changing frames with it on right after an export crashes Blender
         scene.frame_set(self.frame)
         if self.was_on:
             frame_handler.switch(scene, True)
-            layer_resolve.keep_correspondence(correspondence)
+            frame_memory.keep_correspondence(correspondence)
             frame_handler.on_frame_change(scene)
         elif self.shown:
-            layer_resolve.resolve_scene(scene)
+            resolve_job.resolve_scene(scene)
 
     abandon = restore
 

@@ -8,7 +8,8 @@ import bpy
 from bpy.app.handlers import persistent
 
 from ..io import blender_versions
-from . import layer_resolve, report, result_stack, results, staleness
+from . import frame_memory, report, resolve_job, result_stack, results, staleness
+from .scene_read import LayeringInputError, layered_objects
 
 _busy = False
 _seen = {}  # scene name: resolve_on_frame_change as last acted on
@@ -40,9 +41,9 @@ def switched(scene):
     again (a correction kept from one frame would be wrong on every other). On: the next frame
     change corrects."""
     _seen[scene.name] = scene.deformrt.resolve_on_frame_change
-    layer_resolve.forget_correspondence()
+    frame_memory.forget()
     if not scene.deformrt.resolve_on_frame_change:
-        layer_resolve.clear_scene(scene)
+        resolve_job.clear_scene(scene)
 
 
 def switch(scene, on: bool):
@@ -112,13 +113,13 @@ def restarting_cloth(scene, objects):
 
 def correct_frame(scene):
     """The layering of the current frame (what the handler runs); returns its summary."""
-    _, garments = layer_resolve.layered_objects(scene)
+    _, garments = layered_objects(scene)
     restarting = restarting_cloth(scene, garments)
     if restarting:
-        raise layer_resolve.LayeringInputError(
+        raise LayeringInputError(
             f"{', '.join(restarting)}: bake the cloth first (Physics > Cache > Bake All Dynamics) or turn this "
             "on at the simulation's first frame; adding DeformRT's result restarts an unbaked simulation")
-    return layer_resolve.resolve_scene(scene, reuse_correspondence=True)
+    return resolve_job.resolve_scene(scene, playing=True)
 
 
 def register():
@@ -133,5 +134,5 @@ def unregister():
         bpy.app.handlers.frame_change_post.remove(on_frame_change)
     while on_depsgraph_update in bpy.app.handlers.depsgraph_update_post:
         bpy.app.handlers.depsgraph_update_post.remove(on_depsgraph_update)
-    layer_resolve.forget_correspondence()
+    frame_memory.forget()
     _seen.clear()

@@ -10,7 +10,7 @@ from ...core.layering.probes import body_probes
 from ...core.render.layered_trace import LayeredScene
 from ...core.render.mesh_cleaning import finite_part
 from ..io import mesh_io
-from ..layers.layer_resolve import GLOBAL_NORMAL_ATTRIBUTE, body_parts, probe_distances
+from ..layers.scene_read import GLOBAL_NORMAL_ATTRIBUTE, body_parts, probe_distances
 from .materials import materials
 
 

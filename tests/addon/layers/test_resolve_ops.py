@@ -88,12 +88,12 @@ def test_resolving_twice_gives_the_same_result_and_clear_removes_every_trace(ext
 
 def test_reading_under_a_result_gives_the_fitted_garment_and_an_older_files_result_still_shows(extension, tubes):
     body, garments = tubes
-    layer_resolve = sub(extension, "addon.layers.layer_resolve")
+    scene_read = sub(extension, "addon.layers.scene_read")
     result_nodes = sub(extension, "addon.layers.result_nodes")
     fitted = [evaluated(g) for g in garments]
     bpy.ops.deformrt.resolve_layers()
     shown = [evaluated(g) for g in garments]
-    with layer_resolve.results_bypassed(garments):
+    with scene_read.results_bypassed(garments):
         for f, g in zip(fitted, garments, strict=True):
             np.testing.assert_array_equal(evaluated(g)[0], f[0])
             np.testing.assert_array_equal(evaluated(g)[1], f[1])
@@ -106,7 +106,7 @@ def test_reading_under_a_result_gives_the_fitted_garment_and_an_older_files_resu
         mesh.attributes.remove(mesh.attributes[result_nodes.BYPASS_ATTRIBUTE])
         mesh.update()
     bpy.data.node_groups[result_nodes.GROUP_NAME]["deformrt_version"] = 1
-    with layer_resolve.results_bypassed(garments):
+    with scene_read.results_bypassed(garments):
         np.testing.assert_array_equal(evaluated(garments[0])[0], fitted[0][0])
     np.testing.assert_array_equal(evaluated(garments[0])[0], shown[0][0])
     assert bpy.data.node_groups[result_nodes.GROUP_NAME]["deformrt_version"] == result_nodes.GROUP_VERSION
@@ -304,10 +304,10 @@ def test_lengths_in_messages_are_in_the_scenes_units(extension, tubes, system, s
 def test_a_resolve_dropped_before_it_is_written_changes_nothing(extension, tubes):
     # what Esc does to the modal resolve: the core result is computed but never written
     body, garments = tubes
-    lr = sub(extension, "addon.layers.layer_resolve")
+    lr = sub(extension, "addon.layers.resolve_job")
     own = [mesh_state(o) for o in (body, *garments)]
     job = lr.prepare_resolve(bpy.context.scene)
-    result = lr.compute_resolve(job)
+    result = lr.compute_resolve(job).result
     assert max(np.abs(m).max() for m in result.moved) > 0
     for obj, (co, polys, mods) in zip((body, *garments), own, strict=True):
         now = mesh_state(obj)
@@ -556,7 +556,7 @@ def test_falling_sheets_are_corrected_frame_by_frame_and_switching_off_gives_the
     scene.deformrt.resolve_on_frame_change = True
     for f in range(1, 25):
         scene.frame_set(f)
-        with sub(extension, "addon.layers.layer_resolve").results_bypassed(made):
+        with sub(extension, "addon.layers.scene_read").results_bypassed(made):
             for o, v in zip(made, raw[f], strict=True):
                 np.testing.assert_allclose(evaluated(o)[0], v, atol=1e-6, err_msg=f"frame {f}")
     assert scene.deformrt.resolve_on_frame_change
