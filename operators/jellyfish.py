@@ -3,7 +3,9 @@
 import bpy
 
 from ..addon.jellyfish import animal as jellyfish
-from ..core.jellyfish.swimming import GOAL_WEIGHTS, default_config, optimize
+from ..core.jellyfish.stroke_search import GOAL_WEIGHTS, optimize
+from ..core.jellyfish.swimming import default_config
+from ..core.jellyfish.waters import WATERS as WATER_KINDS
 from .base import BackgroundOperator, DeformRTOperator
 
 METHODS = (
@@ -16,11 +18,7 @@ GOALS = (
     ("EFFICIENT", "Far for Little Effort", "The farthest swim for the bending and the wake's energy it costs"),
     ("FASTEST", "Farthest", "The farthest swim, whatever it costs"),
 )
-WATERS = (
-    ("axisymmetric", "Round the Axis", "The water round a bell of revolution, as the 3D jellyfish swims in it"),
-    ("planar", "Planar", "A bell as long as the water is deep (flat 2D water): the same stroke swims about half "
-     "as far"),
-)
+WATERS = tuple((w.key, w.label, w.description) for w in WATER_KINDS.values())
 
 
 class _NeedsJellyfish:

@@ -130,35 +130,23 @@ class SolidBell:
     cannot be compressed the missing volume is a sink, which the forcing cannot realise and
     which made the path depend on how often the bell is imposed by a factor of two.
 
-    ``axisymmetric``: the volume is the section's right half turned about the axis (Pappus),
-    scaled as sigma^3; otherwise the section's area, scaled as sigma^2."""
+    ``water`` (waters.Water) says how the section stands for a volume: turned about the axis
+    (scaled as sigma^3) or the section's area (sigma^2)."""
 
-    def __init__(self, shape: BellShape, bell_map: BellMap, axisymmetric: bool):
-        self.map, self.axisymmetric = bell_map, bool(axisymmetric)
+    def __init__(self, shape: BellShape, bell_map: BellMap, water):
+        self.map, self.water = bell_map, water
         self.rest, self.left = contour(shape)
         self.volume0, height = self.volume(self.rest)
         self.centre = np.array([0.0, height])
 
     def volume(self, points):
         """(Area or volume of revolution of a contour like ``contour``'s, its centroid's height)."""
-        p = np.asarray(points, float)
-        if self.axisymmetric:  # the right half: over the exumbrella to the axis, back under the subumbrella
-            quarter = self.left // 2
-            p = np.vstack([p[:quarter + 1], p[self.left + quarter:]])
-        x, y = p[:, 0], p[:, 1]
-        x2, y2 = np.roll(x, -1), np.roll(y, -1)
-        cross = x * y2 - x2 * y
-        if self.axisymmetric:
-            moment = ((x + x2) * cross).sum() / 6.0  # the integral of r over the half-section
-            lever = ((x * (2 * y + y2) + x2 * (y + 2 * y2)) * cross).sum() / 24.0  # of r z
-            return 2.0 * np.pi * moment, lever / moment
-        area = 0.5 * cross.sum()
-        return area, ((y + y2) * cross).sum() / (6.0 * area)
+        return self.water.section_volume(np.asarray(points, float), self.left)
 
     def scale(self, s):
         """sigma at phase s: the mapped tissue times sigma^dim is the rest volume."""
         mapped = self.volume(self.rest + self.map.displacement_at(self.rest, s))[0]
-        return (self.volume0 / mapped) ** (1.0 / (3 if self.axisymmetric else 2))
+        return (self.volume0 / mapped) ** (1.0 / self.water.dimensions)
 
     def at(self, points, s):
         """Rest points moved to phase s."""

@@ -1,11 +1,12 @@
-"""One swimming cycle of an artificial jellyfish (thesis chapter 3): the bell contracts and
-relaxes by its creature's space map inside the particle fluid, and swims by what it pushes.
+"""Swimming cycles of an artificial jellyfish (thesis chapter 3): the bell contracts and relaxes
+by its creature's space map inside the particle fluid, and swims by what it pushes. The search
+for a stroke is ``stroke_search``.
 
 The bell acts on the fluid by direct forcing: lattice particles inside the bell (or closer to
 its contour than ``min_thickness`` / 2, so the thin margin still blocks the flow) take the
 bell's velocity, its deformation rate (the space map's, scaled so the tissue keeps its volume:
 ``SolidBell``) plus its swimming speed V along the axis. The water is round the bell's axis
-(``fluid="axisymmetric"``, the default) or the thesis' plane; it wraps along the axis, and
+(``fluid="axisymmetric"``, the default) or the thesis' plane (``waters``); it wraps along the axis, and
 its sides (periodic, or a free-slip wall round the axis) take no axial momentum, so fluid and
 bell (density equal to water's, as in the thesis) keep their total: V follows from it at every step. This
 is the thesis' fluid force on the bell (eq. 3.10-3.12) integrated implicitly, which stays
@@ -18,10 +19,11 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .axisymmetric_fluid import AxisymmetricFluid
 from .bell import BellMap, BellShape, Creature, SolidBell, check_folds, contour, phase, resample
 from .body_projection import ImposedBody
-from .particle_fluid import Box, LatticeFluid
+from .fitness import FitnessScales, fitness
+from .particle_fluid import LatticeFluid
+from .waters import lattice_for, water
 
 
 @dataclass(frozen=True)
@@ -52,9 +54,7 @@ class JellyfishConfig:
     # cycles each creature swims from rest in a search, its fitness over all of them: one ranks 16
     # random strokes' fitness as 8 do with Spearman 0.991, three 1.000, at three times the cost (REPORT)
     cycles: int = 1
-    # "axisymmetric": the section turned about the axis, the bell of revolution the 3D animal is;
-    # "planar": the thesis' 2D water, a trough infinitely long out of the plane, which carries
-    # more water along for its volume: the same stroke swims about half as far (REPORT)
+    # the water's key in waters.WATERS: "axisymmetric" (round the axis) or "planar" (the thesis')
     fluid: str = "axisymmetric"
 
     def __post_init__(self):
@@ -64,10 +64,7 @@ class JellyfishConfig:
             raise ValueError(f"period must be finite and > 0, got {self.period}")
         if self.box <= self.bell.diameter:
             raise ValueError(f"the box ({self.box} m) must be wider than the bell ({self.bell.diameter} m)")
-        if self.fluid not in ("axisymmetric", "planar"):
-            raise ValueError(f"fluid is 'axisymmetric' or 'planar', got {self.fluid!r}")
-        if self.fluid == "axisymmetric" and self.particles % 2:
-            raise ValueError(f"particles must be even round the axis (half on each side), got {self.particles}")
+        water(self.fluid).check(self)
         if int(self.cycles) != self.cycles or self.cycles < 1:
             raise ValueError(f"cycles must be a whole number >= 1, got {self.cycles}")
         if int(self.max_inner_steps) != self.max_inner_steps or self.max_inner_steps < 1:
@@ -89,11 +86,6 @@ class JellyfishConfig:
     def rows(self) -> int:
         """Particles along the swimming axis."""
         return int(round(self.particles * self.height / self.box))
-
-
-# what a stroke search looks for, as eq. 3.14's weights (w_d, w_b, w_e): the farthest swim for its
-# bending and wake energy (the dissertation's), or the farthest swim whatever it costs
-GOAL_WEIGHTS = {"EFFICIENT": JellyfishConfig.weights, "FASTEST": (1.0, 0.0, 0.0)}
 
 
 def default_config(**changes) -> JellyfishConfig:
@@ -145,54 +137,23 @@ def one_cycle(result: CycleResult, k: int) -> CycleResult:
                    energy_loss_per_cycle=np.array([loss]))
 
 
-@dataclass(frozen=True)
-class FitnessScales:
-    """What makes each term of eq. 3.14 dimensionless: a reference creature's path, bending
-    energy and energy loss (see ``reference_scales``)."""
-
-    path: float
-    bending: float
-    energy: float
-
-
-def fitness(path_m, bending_energy, energy_loss, config, scales: FitnessScales | None = None):
-    """Eq. 3.14, w_d D - w_b E^b - w_e E^l. With ``scales`` each term is over the reference's
-    (the thesis divides E^l by the largest seen so far, which makes the fitness of one creature
-    change with the others; a fixed reference keeps it one objective for every method).
-    Without, D is in bell diameters and the energies are left out."""
-    w_d, w_b, w_e = config.weights
-    if scales is None:
-        return w_d * path_m / config.bell.diameter
-    return w_d * path_m / scales.path - w_b * bending_energy / scales.bending - w_e * energy_loss / scales.energy
-
-
-def reference_scales(config, creature=None, cycles: int | None = None) -> FitnessScales:
-    """Scales from ``cycles`` (default ``config.cycles``) cycles of ``creature`` (default: the
-    default creature)."""
-    r = simulate_cycles(creature or default_creature(config), config, cycles or config.cycles)
-    if r.reason is not None:
-        raise ValueError(f"the reference creature is refused: {r.reason}")
-    tiny = 1e-3 * config.bell.diameter
-    return FitnessScales(max(abs(r.path_m), tiny), max(r.bending_energy, 1e-300), max(r.energy_loss, 1e-300))
-
-
-class _BellForcing:
+class BellForcing:
     """The bell as a body the fluid imposes (``body``) and that swims by momentum balance (``moved``)."""
 
     def __init__(self, fluid: LatticeFluid, config: JellyfishConfig, bell_map: BellMap, contraction: float):
         self.fluid, self.config, self.map = fluid, config, bell_map
         self.contraction = contraction
         self.rest, self.left = contour(config.bell)
+        kind = water(config.fluid)
         # as far from the bottom as in the square box: a taller box leaves the room ahead
-        round_axis = isinstance(fluid, AxisymmetricFluid)  # the lattice starts at the axis
-        self.offset = np.array([0.0 if round_axis else 0.5 * config.box, 0.5 * config.box - 0.5 * config.bell.height])
+        self.offset = np.array([kind.axis_x(config), 0.5 * config.box - 0.5 * config.bell.height])
         self.y = 0.0  # swum so far
         self.speed = 0.0
         self.mask = np.zeros(fluid.n, dtype=bool)
         self.momentum0 = 0.0
         self.reach = 0.5 * config.min_thickness_cells * fluid.h
         self._at, self._covered, self._rate, self._body = None, None, None, None
-        self.solid = SolidBell(config.bell, bell_map, axisymmetric=round_axis)
+        self.solid = SolidBell(config.bell, bell_map, kind)
 
     def outline(self, t):
         s = phase(t / self.config.period, self.contraction)
@@ -275,15 +236,6 @@ def _inside(points, polygon):
     return (crosses & (x < xs)).sum(1) % 2 == 1
 
 
-def _water(config):
-    options = dict(viscosity=config.viscosity, density=config.density, cfl=config.cfl,
-                   forcing_corrections=config.forcing_corrections, forcing_tolerance=config.forcing_tolerance)
-    if config.fluid == "axisymmetric":
-        return AxisymmetricFluid(0.5 * config.box, config.height, config.particles // 2, config.rows, **options)
-    return LatticeFluid(Box(config.box, config.height, periodic=(True, True)), nx=config.particles, ny=config.rows,
-                        **options)
-
-
 def simulate_cycle(creature: Creature, config: JellyfishConfig | None = None, sample_fields=False,
                    scales: FitnessScales | None = None, stop=None) -> CycleResult:
     """One contraction-relaxation cycle from rest (``simulate_cycles`` with one cycle)."""
@@ -313,7 +265,7 @@ def simulate_cycles(creature: Creature, config: JellyfishConfig | None = None, c
     reason = check_folds(config.bell, bell_map)
     if reason is not None:
         return refused(reason)
-    fluid = _water(config)
+    fluid = lattice_for(config)
     dt = config.period / config.substeps
     # the bell's own fastest point may not cross more than a Courant number of particles per
     # inner step either (the fluid only sees its speed once it has moved)
@@ -323,7 +275,7 @@ def simulate_cycles(creature: Creature, config: JellyfishConfig | None = None, c
     if split > config.max_inner_steps:
         return refused(f"the stroke is too fast for the lattice: {split} inner steps a substep, at most "
                        f"{config.max_inner_steps} (a longer contraction share, more substeps or max_inner_steps)")
-    forcing = _BellForcing(fluid, config, bell_map, creature.contraction)
+    forcing = BellForcing(fluid, config, bell_map, creature.contraction)
     forcing.mask = forcing.covered(forcing.outline(0.0))
     loss, speeds, swum, fields, inner, per_cycle, loss_per_cycle = 0.0, [], [], [], 0, [], []
     for k in range(cycles * config.substeps):
@@ -349,123 +301,3 @@ def simulate_cycles(creature: Creature, config: JellyfishConfig | None = None, c
                        np.array(speeds), np.array(swum), fields, np.array(per_cycle), np.array(loss_per_cycle))
 
 
-@dataclass(frozen=True)
-class StrokeSpace:
-    """Where a search looks: each control point's destination as an offset from its rest
-    place, in bell radii, between ``low`` and ``high``; the contraction share in between its
-    bounds (the thesis keeps the search to strokes that are not "definitely too much")."""
-
-    low: tuple = ((-0.5, -0.4), (-0.2, -0.1))
-    high: tuple = ((0.1, 0.15), (0.05, 0.05))
-    contraction: tuple = (0.15, 0.6)
-
-    def _box(self, config):
-        a = 0.5 * config.bell.diameter
-        lo = np.append(a * np.ravel(self.low), self.contraction[0])
-        hi = np.append(a * np.ravel(self.high), self.contraction[1])
-        if not (lo < hi).all() or not 0 < self.contraction[0] < self.contraction[1] < 1:
-            raise ValueError("every bound of the stroke space must be below its upper bound, contraction in (0, 1)")
-        return lo, hi
-
-    @property
-    def dim(self) -> int:
-        return int(np.size(self.low)) + 1
-
-    def creature(self, genes, config) -> Creature:
-        """Genes in [0, 1]^dim -> a creature on the default creature's control points."""
-        lo, hi = self._box(config)
-        v = lo + np.clip(np.asarray(genes, float), 0.0, 1.0) * (hi - lo)
-        controls = default_creature(config).controls
-        if controls.size != self.dim - 1:
-            raise ValueError(f"the stroke space has {self.dim - 1} offsets, the creature {controls.size}")
-        return Creature(controls, controls + v[:-1].reshape(controls.shape), float(v[-1]))
-
-    def genes(self, creature, config) -> np.ndarray:
-        lo, hi = self._box(config)
-        v = np.append(np.ravel(creature.destinations - creature.controls), creature.contraction)
-        return np.clip((v - lo) / (hi - lo), 0.0, 1.0)
-
-
-@dataclass
-class OptimizeResult:
-    creature: Creature
-    fitness: float
-    cycle: CycleResult  # the best creature's swimming cycle
-    history: list  # per batch: dicts of evaluations, seconds, best and mean fitness
-    evaluations: int
-    seconds: float
-    stopped: str  # "agreement", "generations", "budget" or "cancelled"
-    method: str
-    backend: str
-    scales: FitnessScales
-
-
-def _evaluate(job):
-    """One creature's ``config.cycles`` cycles in a worker: (genes, config, space, scales) -> CycleResult."""
-    genes, config, space, scales = job
-    return simulate_cycles(space.creature(genes, config), config, config.cycles, scales=scales)
-
-
-def optimize(config: JellyfishConfig | None = None, method="ga-sa", seed=0, population=10, generations=30,
-             budget=None, workers=None, scheduler=None, space: StrokeSpace | None = None, start: Creature | None = None,
-             progress=None, stop=None, **options) -> OptimizeResult:
-    """The creature with the best fitness (eq. 3.14, scaled by the default creature's), each
-    creature swimming ``config.cycles`` cycles from rest.
-
-    method: "ga-sa" (the thesis'; ``population`` creatures, at most ``generations``, stops
-    when the population agrees within 10 %), "de" (scipy differential evolution) or "random";
-    the last two spend ``budget`` evaluations (default what ga-sa may spend at most).
-    workers: processes (default every core; 1 runs here); scheduler: a Dask address instead.
-    progress(evaluations, expected, best_fitness) is called as each cycle finishes; stop()
-    is polled, and a stop keeps the best creature so far. Same seed, same result."""
-    from . import genetic
-    from .evaluation import Cancelled, Evaluator
-
-    config = config or default_config()
-    space = space or StrokeSpace()
-    if method not in ("ga-sa", "de", "random"):
-        raise ValueError(f"unknown method {method!r}: choose 'ga-sa', 'de' or 'random'")
-    if budget is not None and not (int(budget) == budget and budget >= 1):
-        raise ValueError(f"budget must be a whole number of evaluations >= 1 (None: what ga-sa may spend), "
-                         f"got {budget}")
-    t0 = time.perf_counter()
-    budget = int(budget if budget is not None else population * (generations + 1))
-    expected = population * (generations + 1) if method == "ga-sa" else budget
-    scales = reference_scales(config)
-    rng = np.random.default_rng(seed)
-    best = {"f": -np.inf, "genes": None, "cycle": None, "count": 0}
-    batches = []
-
-    with Evaluator(workers, scheduler) as evaluator:
-
-        def objective(points):
-            jobs = [(np.array(p, float), config, space, scales) for p in points]  # copies: the search reuses its arrays
-
-            def done(k, cycle):
-                best["count"] += 1
-                if cycle.fitness > best["f"] or best["genes"] is None:
-                    best.update(f=cycle.fitness, genes=jobs[k][0], cycle=cycle)
-                if progress:
-                    progress(best["count"], expected, best["f"])
-
-            try:
-                cycles = evaluator.map(_evaluate, jobs, on_done=done, stop=stop)
-            except Cancelled:
-                raise genetic.Stop from None
-            batches.append(time.perf_counter() - t0)
-            return [c.fitness for c in cycles]
-
-        if method == "ga-sa":
-            x0 = space.genes(start or default_creature(config), config)
-            found = genetic.ga_sa(objective, x0, rng, population, generations, stop=stop, **options)
-        elif method == "de":
-            found = genetic.differential_evolution(objective, space.dim, rng, budget, population, stop=stop, **options)
-        else:
-            found = genetic.random_search(objective, space.dim, rng, budget, population, stop=stop, **options)
-        backend = evaluator.backend
-    if best["genes"] is None:
-        raise RuntimeError("stopped before any creature was evaluated")
-    history = [{"evaluations": e, "seconds": s, "best": b, "mean": m}
-               for (e, b, m), s in zip(found.history, batches, strict=False)]
-    return OptimizeResult(space.creature(best["genes"], config), best["f"], best["cycle"], history, best["count"],
-                          time.perf_counter() - t0, found.stopped, method, backend, scales)

@@ -18,14 +18,9 @@ from ...addon.io import blender_versions
 from ...addon.io.image_io import contact_sheet
 from ...addon.jellyfish import animal as jellyfish
 from ...core.jellyfish import bell3d
-from ...core.jellyfish.swimming import (
-    GOAL_WEIGHTS,
-    default_config,
-    default_creature,
-    fitness,
-    reference_scales,
-    simulate_cycle,
-)
+from ...core.jellyfish.fitness import fitness
+from ...core.jellyfish.stroke_search import GOAL_WEIGHTS, reference_scales
+from ...core.jellyfish.swimming import default_config, default_creature, simulate_cycle
 
 # the travel sheet: the start of every fourth cycle, 32 cycles; a stroke that swims more than SWIFT
 # bell diameters in its first cycle from rest is shown every cycle, so 8 cycles stay in the frame

@@ -285,8 +285,7 @@ def test_the_search_beats_the_default_stroke_on_its_goal_and_the_fastest_swims_f
     """Whatever it looks for, the stroke found scores at least the default stroke on that score
     (the default is in the first population); the Farthest goal finds a stroke that swims at least
     1.5 times the default's path over six cycles from rest (measured: 8 times at 60 and 100 particles)."""
-    from core.jellyfish import simulate_cycles
-    from core.jellyfish.swimming import GOAL_WEIGHTS
+    from core.jellyfish import GOAL_WEIGHTS, simulate_cycles
 
     config = default_config(particles=40, weights=GOAL_WEIGHTS[goal])
     found = optimize(config, "ga-sa", seed=0, population=6, generations=2, workers=1)

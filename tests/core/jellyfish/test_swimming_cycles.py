@@ -8,6 +8,7 @@ from core.jellyfish import default_config, default_creature, simulate_cycle, sim
 from core.jellyfish.bell import BellMap, Creature, SolidBell
 from core.jellyfish.evaluation import Cancelled
 from core.jellyfish.particle_fluid import Box, LatticeFluid
+from core.jellyfish.waters import WATERS
 
 
 def _recording_advection(monkeypatch):
@@ -33,7 +34,7 @@ def test_advection_makes_no_momentum_over_a_swimming_cycle(monkeypatch, fluid):
     made = _recording_advection(monkeypatch)
     cfg = default_config(fluid=fluid)
     r = simulate_cycle(default_creature(cfg), cfg)
-    bell = SolidBell(cfg.bell, BellMap(cfg.bell, default_creature(cfg), 0.5 * cfg.box), fluid == "axisymmetric")
+    bell = SolidBell(cfg.bell, BellMap(cfg.bell, default_creature(cfg), 0.5 * cfg.box), WATERS[fluid])
     per_bell_mass = np.abs(np.sum(made, axis=0)) / bell.volume0  # m/s
     assert len(made) > cfg.substeps and per_bell_mass[1] < 1e-3
     if fluid == "planar":
@@ -75,12 +76,13 @@ def test_the_bell_moves_its_particles_at_their_own_material_speed(fluid):
     from scipy.optimize import fsolve
 
     from core.jellyfish.bell import phase
-    from core.jellyfish.swimming import _BellForcing, _water
+    from core.jellyfish.swimming import BellForcing
+    from core.jellyfish.waters import lattice_for
 
     cfg = default_config(particles=60, fluid=fluid)
     cr = default_creature(cfg)
-    fluid = _water(cfg)
-    forcing = _BellForcing(fluid, cfg, BellMap(cfg.bell, cr, 0.5 * cfg.box), cr.contraction)
+    fluid = lattice_for(cfg)
+    forcing = BellForcing(fluid, cfg, BellMap(cfg.bell, cr, 0.5 * cfg.box), cr.contraction)
     t = 0.2  # mid-contraction: phase 0.65, the margin at its fastest
     body = forcing.body(t)
     mask, imposed = body.mask, body.velocity
@@ -156,12 +158,12 @@ def test_a_bell_swimming_out_at_the_top_comes_in_at_the_bottom():
 
     import core.jellyfish.swimming as swimming
 
-    init = swimming._BellForcing.__init__
+    init = swimming.BellForcing.__init__
     try:
-        swimming._BellForcing.__init__ = start_high
+        swimming.BellForcing.__init__ = start_high
         high = simulate_cycle(default_creature(cfg), cfg)
     finally:
-        swimming._BellForcing.__init__ = init
+        swimming.BellForcing.__init__ = init
     assert high.path_m - y0 == pytest.approx(middle.path_m, rel=1e-3)  # a particle at the margin may flip
 
 
