@@ -15,12 +15,12 @@ def register():
     import bpy
 
     from .addon import properties
+    from .addon.cli import commands as cli
     from .addon.layers import frame_handler, staleness
     from .addon.render import engine as render_engine
     from .addon.ui import panels, preferences
     from .operators import jellyfish as jellyfish_ops
     from .operators import layering, tagging
-    from .operators.cli import commands as cli
 
     classes = (*properties.CLASSES, *preferences.CLASSES, *tagging.CLASSES, *layering.CLASSES,
                *jellyfish_ops.CLASSES, *panels.CLASSES)
@@ -39,12 +39,12 @@ def unregister():
     import bpy
 
     from .addon import properties
+    from .addon.cli import commands as cli
     from .addon.layers import frame_handler, staleness
     from .addon.render import engine as render_engine
     from .core.geometry import parallel
     from .core.layering.body_facts import forget_garments
     from .operators import jellyfish as jellyfish_ops
-    from .operators.cli import commands as cli
 
     render_engine.unregister()
     frame_handler.unregister()

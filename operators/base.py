@@ -1,7 +1,9 @@
 """What every DeformRT operator shares: a refusal reported in one place, and long work that runs
 on a worker thread in the UI (the main thread polls it on a timer, shows progress, stays
 responsive, and Esc stops it) and blocks headless callers. Only the main thread touches bpy data:
-``prepare`` reads the scene, ``work`` is plain numpy, ``finish`` writes back."""
+``prepare`` reads the scene, ``work`` is plain numpy, ``finish`` writes back. Work that needs bpy
+at every step (frames to resolve one by one) runs in steps on the main thread instead, one per
+timer tick in the UI (SteppedOperator)."""
 
 import threading
 import time
@@ -119,3 +121,52 @@ class BackgroundOperator(DeformRTOperator):
         if "error" in state:
             return self.fail(state["error"])
         return self.finish(context, self._job, state["result"])
+
+
+class SteppedOperator(DeformRTOperator):
+    """An operator whose long work must touch bpy, so it runs on the main thread a step at a time:
+    one step per timer tick in the UI (the status bar shows it, Esc stops it between steps), all
+    steps in a row headless. A subclass defines ``start(context)``: a job with ``advance()`` (one
+    step; False when none is left or one failed), ``done`` and ``total`` (steps), and
+    ``end(cancelled)`` (``cancelled``: None, or what stopped it), which finishes and returns
+    (succeeded, the message to report); raise ValueError or RuntimeError in ``start`` to refuse.
+    ``status`` may name the total as {total}."""
+
+    status = "DeformRT: working (Esc to stop)"
+
+    def start(self, context):
+        raise NotImplementedError
+
+    def execute(self, context):
+        try:
+            self._stepped = self.start(context)
+        except (ValueError, RuntimeError) as exc:
+            return self.fail(exc)
+        if context.window is None or getattr(self, "headless", False):
+            while self._stepped.advance():
+                pass
+            return self._stepped_end(None)
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.001, window=context.window)
+        wm.progress_begin(0, self._stepped.total)
+        wm.modal_handler_add(self)
+        context.workspace.status_text_set(self.status.format(total=self._stepped.total))
+        return {"RUNNING_MODAL"}
+
+    def _stepped_end(self, cancelled) -> set:
+        ok, message = self._stepped.end(cancelled)
+        self.report({"INFO"} if ok else {"ERROR"}, message)
+        return {"FINISHED"} if ok else {"CANCELLED"}
+
+    def modal(self, context, event):
+        if event.type not in ("TIMER", "ESC"):
+            return {"RUNNING_MODAL"}  # no frame changes or edits under the work
+        more = event.type == "TIMER" and self._stepped.advance()
+        wm = context.window_manager
+        if more:
+            wm.progress_update(self._stepped.done)
+            return {"RUNNING_MODAL"}
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        context.workspace.status_text_set(None)
+        return self._stepped_end("Esc" if event.type == "ESC" else None)

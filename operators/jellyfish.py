@@ -30,7 +30,7 @@ class _NeedsJellyfish:
         return True
 
 
-class DEFORMRT_OT_add_jellyfish(bpy.types.Operator):
+class DEFORMRT_OT_add_jellyfish(DeformRTOperator, bpy.types.Operator):
     """Add a jellyfish: a bell turned about its axis, with a velum, veins and tentacles"""
 
     bl_idname = "deformrt.add_jellyfish"

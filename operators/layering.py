@@ -1,14 +1,11 @@
 """Resolve, clear and bake the layered garments of the scene."""
 
-import os
-import shutil
-
 import bpy
 
 from ..addon.io import blender_versions
 from ..addon.layers import frame_bake, inspect_layers, part_tools, report, resolve_job, results, scene_roles
 from ..addon.layers.scene_read import layered_objects
-from .base import BackgroundOperator, DeformRTOperator
+from .base import BackgroundOperator, DeformRTOperator, SteppedOperator
 
 
 class _NeedsGarments:
@@ -198,42 +195,13 @@ class DEFORMRT_OT_inspect_layers(_NeedsGarments, DeformRTOperator, bpy.types.Ope
         return {"FINISHED"}
 
 
-def _render_vertices(obj, depsgraph) -> tuple:
-    """(vertices, corners) the Alembic export writes per frame for ``obj``: what the viewport
-    evaluates, times four per level its subdivision modifiers add in the render."""
-    mesh = obj.evaluated_get(depsgraph).data
-    extra = sum(max(getattr(m, "render_levels", 0) - getattr(m, "levels", 0), 0)
-                for m in obj.modifiers if m.type in ("SUBSURF", "MULTIRES") and m.show_render)
-    return len(mesh.vertices) * 4 ** extra, len(mesh.loops) * 4 ** extra
-
-
-def cache_fits(path, objs, depsgraph, frames) -> None:
-    """Refuse, with what to do, a cache path that is a folder, or a disk that cannot take the cache
-    (Blender's Alembic writer aborts the whole program when its disk fills, unsaved work and all).
-    A missing folder is made."""
-    if os.path.isdir(path):
-        raise ValueError(f"{path} is a folder: give a file name for the cache (for example {path.rstrip(os.sep)}"
-                         f"{os.sep}layers.abc)")
-    folder = os.path.dirname(path) or "."
-    try:
-        os.makedirs(folder, exist_ok=True)
-    except OSError as exc:
-        raise ValueError(f"Cannot make the folder {folder} for the cache: {exc.strerror}") from exc
-    # positions and normals per vertex, a UV per corner, each frame (measured files are smaller)
-    per_frame = sum(24 * v + 8 * c for v, c in (_render_vertices(o, depsgraph) for o in objs))
-    needed = 2 * per_frame * frames + (64 << 20)
-    free = shutil.disk_usage(folder).free
-    if free < needed:
-        raise ValueError(f"The disk of {folder} has {free / 2**20:.0f} MB free and the cache of {frames} frames may "
-                         f"need {needed / 2**20:.0f} MB: free some space or bake fewer frames; nothing was written")
-
-
-class DEFORMRT_OT_bake_frames(_NeedsGarments, DeformRTOperator, bpy.types.Operator):
+class DEFORMRT_OT_bake_frames(_NeedsGarments, SteppedOperator, bpy.types.Operator):
     """Resolve every frame of a range and write body and garments to an Alembic cache that needs no DeformRT"""
 
     bl_idname = "deformrt.bake_frames"
     bl_label = "Bake Frames"
     bl_options = {"REGISTER", "UNDO"}
+    status = "DeformRT: resolving {total} frames to bake (Esc to stop)"
 
     frame_start: bpy.props.IntProperty(name="Start", default=1, min=0)
     frame_end: bpy.props.IntProperty(name="End", default=250, min=0)
@@ -244,83 +212,18 @@ class DEFORMRT_OT_bake_frames(_NeedsGarments, DeformRTOperator, bpy.types.Operat
     # a script's call blocks, as a script expects
     in_ui: bpy.props.BoolProperty(default=False, options={"HIDDEN", "SKIP_SAVE"})
 
+    @property
+    def headless(self) -> bool:
+        return not self.in_ui
+
     def invoke(self, context, _event):
         self.frame_start, self.frame_end = context.scene.frame_start, context.scene.frame_end
         self.in_ui = context.window is not None and not bpy.app.background
         return context.window_manager.invoke_props_dialog(self)
 
-    def execute(self, context):
-        scene = context.scene
-        if self.frame_end < self.frame_start:
-            self.report({"ERROR"}, f"End frame {self.frame_end} is before start frame {self.frame_start}")
-            return {"CANCELLED"}
-        try:
-            body, garments = layered_objects(scene)
-        except ValueError as exc:
-            return self.fail(exc)
-        if self.filepath.startswith("//") and not bpy.data.filepath:
-            self.report({"ERROR"}, "Save the file first or give an absolute path for the cache")
-            return {"CANCELLED"}
-        path = bpy.path.abspath(self.filepath)
-        frames = range(self.frame_start, self.frame_end + 1)
-        try:
-            cache_fits(path, [body, *garments], context.evaluated_depsgraph_get(), len(frames))
-        except ValueError as exc:
-            return self.fail(exc)
-        self._failure = None
-        self._bake = frame_bake.FrameBake(scene, body, garments, frames, path)
-        self._bake.signals.__enter__()
-        if not self.in_ui:
-            while self._bake_step():
-                pass
-            return self._bake_end()
-        wm = context.window_manager
-        self._timer = wm.event_timer_add(0.001, window=context.window)
-        wm.progress_begin(0, len(frames))
-        wm.modal_handler_add(self)
-        context.workspace.status_text_set(f"DeformRT: resolving {len(frames)} frames to bake (Esc to stop)")
-        return {"RUNNING_MODAL"}
-
-    def _bake_step(self) -> bool:
-        try:
-            return self._bake.step()
-        except (ValueError, RuntimeError) as exc:
-            self._failure = str(exc)
-            return False
-
-    def _bake_end(self, cancelled=None) -> set:
-        """Write the cache (unless stopped) and put the scene back; one report."""
-        bake = self._bake
-        failure = cancelled or self._failure
-        try:
-            if failure is None:
-                bake.write()
-        except frame_bake.BakeStopped as exc:
-            failure = str(exc)
-        finally:
-            bake.restore()
-            bake.signals.__exit__(None, None, None)
-        if failure is not None:
-            message = (f"Bake stopped after {bake.done} of {len(bake.frames)} frames, nothing written "
-                       f"(a cache already at the path is as it was): {failure}")
-            bake.signals.pass_on(message)
-            self.report({"ERROR"}, message)
-            return {"CANCELLED"}
-        self.report({"INFO"}, f"Baked {len(bake.frames)} frames of {len(bake.garments)} garments to {bake.path}")
-        return {"FINISHED"}
-
-    def modal(self, context, event):
-        if event.type not in ("TIMER", "ESC"):
-            return {"RUNNING_MODAL"}  # no frame changes or edits under the bake
-        more = event.type == "TIMER" and self._bake_step()
-        wm = context.window_manager
-        if more:
-            wm.progress_update(self._bake.done)
-            return {"RUNNING_MODAL"}
-        wm.event_timer_remove(self._timer)
-        wm.progress_end()
-        context.workspace.status_text_set(None)
-        return self._bake_end("Esc" if event.type == "ESC" else None)
+    def start(self, context):
+        return frame_bake.start_bake(context.scene, self.frame_start, self.frame_end, self.filepath,
+                                     context.evaluated_depsgraph_get())
 
 
 CLASSES = (DEFORMRT_OT_resolve_layers, DEFORMRT_OT_add_part_probe, DEFORMRT_OT_remove_part_probe,

@@ -4,13 +4,14 @@ import bpy
 from bpy.props import EnumProperty, StringProperty
 
 from ..addon.layers import scene_roles
+from .base import DeformRTOperator
 
 
 def _selected_meshes(context):
     return [o for o in context.selected_objects if o.type == "MESH"]
 
 
-class DEFORMRT_OT_tag_body(bpy.types.Operator):
+class DEFORMRT_OT_tag_body(DeformRTOperator, bpy.types.Operator):
     """Make the active mesh the body the garments are worn on (layer 0)"""
 
     bl_idname = "deformrt.tag_body"
@@ -37,7 +38,7 @@ class DEFORMRT_OT_tag_body(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class DEFORMRT_OT_tag_garments(bpy.types.Operator):
+class DEFORMRT_OT_tag_garments(DeformRTOperator, bpy.types.Operator):
     """Make the selected meshes garments on new outer layers, ordered by kind (underwear to coat)"""
 
     bl_idname = "deformrt.tag_garments"
@@ -66,7 +67,7 @@ class DEFORMRT_OT_tag_garments(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class DEFORMRT_OT_tag_makehuman(bpy.types.Operator):
+class DEFORMRT_OT_tag_makehuman(DeformRTOperator, bpy.types.Operator):
     """Tag an MPFB2 character: its body or proxy as the body, its clothes as garments in MakeHuman's order"""
 
     bl_idname = "deformrt.tag_makehuman"
@@ -84,12 +85,10 @@ class DEFORMRT_OT_tag_makehuman(bpy.types.Operator):
     def execute(self, context):
         found = scene_roles.mpfb_character(context.scene, near=context.active_object)
         if found is None:
-            self.report({"ERROR"}, "More than one MakeHuman character: select one of its objects first")
-            return {"CANCELLED"}
+            return self.fail(ValueError("More than one MakeHuman character: select one of its objects first"))
         body, clothes, order = found
         if not clothes:
-            self.report({"ERROR"}, f"{body.name} wears no MakeHuman clothes: nothing to layer")
-            return {"CANCELLED"}
+            return self.fail(ValueError(f"{body.name} wears no MakeHuman clothes: nothing to layer"))
         untagged = []
         for obj in context.scene.objects:  # one character's layers: other tags would mix in
             if obj.deformrt.role != "NONE" and obj is not body and obj not in clothes:
@@ -106,7 +105,7 @@ class DEFORMRT_OT_tag_makehuman(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class DEFORMRT_OT_clear_role(bpy.types.Operator):
+class DEFORMRT_OT_clear_role(DeformRTOperator, bpy.types.Operator):
     """Take the selected objects out of garment layering"""
 
     bl_idname = "deformrt.clear_role"
@@ -129,7 +128,7 @@ class DEFORMRT_OT_clear_role(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class DEFORMRT_OT_order_by_kind(bpy.types.Operator):
+class DEFORMRT_OT_order_by_kind(DeformRTOperator, bpy.types.Operator):
     """Re-order all garments by kind, from underwear to coats; garments of one kind keep their order"""
 
     bl_idname = "deformrt.order_by_kind"
@@ -152,7 +151,7 @@ class DEFORMRT_OT_order_by_kind(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class DEFORMRT_OT_move_layer(bpy.types.Operator):
+class DEFORMRT_OT_move_layer(DeformRTOperator, bpy.types.Operator):
     """Move a garment one layer further out (up) or in (down), swapping with the garment there"""
 
     bl_idname = "deformrt.move_layer"
@@ -177,8 +176,7 @@ class DEFORMRT_OT_move_layer(bpy.types.Operator):
     def execute(self, context):
         obj = self._target(context)
         if obj is None:
-            self.report({"ERROR"}, "Nothing to move: pick a garment (role Garment) first")
-            return {"CANCELLED"}
+            return self.fail(ValueError("Nothing to move: pick a garment (role Garment) first"))
         step = 1 if self.direction == "UP" else -1
         old = obj.deformrt.layer
         new = old + step

@@ -6,6 +6,7 @@ stopped bake writes nothing, leaves an earlier cache at the path as it was, and 
 back (frame, Resolve on Frame Change, a still resolve shown before)."""
 
 import os
+import shutil
 import signal
 import sys
 
@@ -13,6 +14,7 @@ import bpy
 
 from ..io import blender_versions
 from . import frame_handler, frame_memory, resolve_job, results
+from .scene_read import layered_objects
 
 PARTIAL_SUFFIX = ".deformrt-partial.abc"
 
@@ -62,10 +64,56 @@ class _Signals:
             signal.raise_signal(signal.SIGTERM)
 
 
+def _render_vertices(obj, depsgraph) -> tuple:
+    """(vertices, corners) the Alembic export writes per frame for ``obj``: what the viewport
+    evaluates, times four per level its subdivision modifiers add in the render."""
+    mesh = obj.evaluated_get(depsgraph).data
+    extra = sum(max(getattr(m, "render_levels", 0) - getattr(m, "levels", 0), 0)
+                for m in obj.modifiers if m.type in ("SUBSURF", "MULTIRES") and m.show_render)
+    return len(mesh.vertices) * 4 ** extra, len(mesh.loops) * 4 ** extra
+
+
+def cache_fits(path, objs, depsgraph, frames) -> None:
+    """Refuse, with what to do, a cache path that is a folder, or a disk that cannot take the cache
+    (Blender's Alembic writer aborts the whole program when its disk fills, unsaved work and all).
+    A missing folder is made."""
+    if os.path.isdir(path):
+        raise ValueError(f"{path} is a folder: give a file name for the cache (for example {path.rstrip(os.sep)}"
+                         f"{os.sep}layers.abc)")
+    folder = os.path.dirname(path) or "."
+    try:
+        os.makedirs(folder, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"Cannot make the folder {folder} for the cache: {exc.strerror}") from exc
+    # positions and normals per vertex, a UV per corner, each frame (measured files are smaller)
+    per_frame = sum(24 * v + 8 * c for v, c in (_render_vertices(o, depsgraph) for o in objs))
+    needed = 2 * per_frame * frames + (64 << 20)
+    free = shutil.disk_usage(folder).free
+    if free < needed:
+        raise ValueError(f"The disk of {folder} has {free / 2**20:.0f} MB free and the cache of {frames} frames may "
+                         f"need {needed / 2**20:.0f} MB: free some space or bake fewer frames; nothing was written")
+
+
+def start_bake(scene, frame_start, frame_end, filepath, depsgraph) -> "FrameBake":
+    """A FrameBake of frames ``frame_start``..``frame_end`` to ``filepath`` (Blender's // allowed),
+    after checking what it needs; raises ValueError with what to change."""
+    if frame_end < frame_start:
+        raise ValueError(f"End frame {frame_end} is before start frame {frame_start}")
+    body, garments = layered_objects(scene)
+    if filepath.startswith("//") and not bpy.data.filepath:
+        raise ValueError("Save the file first or give an absolute path for the cache")
+    path = bpy.path.abspath(filepath)
+    frames = range(frame_start, frame_end + 1)
+    cache_fits(path, [body, *garments], depsgraph, len(frames))
+    return FrameBake(scene, body, garments, frames, path)
+
+
 class FrameBake:
     """One bake of ``frames`` (a range) of the scene's tagged figure to ``path``. ``step``
     resolves the next frame (True while frames are left), ``write`` exports, ``restore``
-    puts the scene back; ``abandon`` is ``restore`` for a bake that will not be written."""
+    puts the scene back; ``abandon`` does that for a bake that will not be written.
+    As a stepped job (operators.base.SteppedOperator): ``advance`` steps and keeps a failure,
+    ``end`` writes (unless stopped), puts the scene back and says how it went."""
 
     def __init__(self, scene, body, garments, frames, path):
         self.scene, self.body, self.garments = scene, body, garments
@@ -73,8 +121,10 @@ class FrameBake:
         self.partial = partial_path(path)
         self._left = iter(frames)
         self.done = 0
+        self.total = len(frames)
+        self.failure = None
         self.kept = {}  # frame: the results.write calls it made
-        self.signals = _Signals()
+        self.signals = _Signals().__enter__()  # until end()
         self.was_on = scene.deformrt.resolve_on_frame_change
         self.frame = scene.frame_current
         self.shown = any(results.data_object(o) is not None for o in (body, *garments))
@@ -149,7 +199,37 @@ class FrameBake:
         elif self.shown:
             resolve_job.resolve_scene(scene)
 
-    abandon = restore
+    def abandon(self) -> None:
+        """Put the scene back for a bake that will not be written."""
+        self.restore()
+        self.signals.__exit__(None, None, None)
+
+    def advance(self) -> bool:
+        """``step``, a frame that cannot be resolved or a signal kept as the failure (False)."""
+        try:
+            return self.step()
+        except (ValueError, RuntimeError) as exc:
+            self.failure = str(exc)
+            return False
+
+    def end(self, cancelled: str | None = None) -> tuple:
+        """Write the cache (unless stopped: ``cancelled`` says by what) and put the scene back;
+        (whether it was written, the one message to report)."""
+        failure = cancelled or self.failure
+        try:
+            if failure is None:
+                self.write()
+        except BakeStopped as exc:
+            failure = str(exc)
+        finally:
+            self.restore()
+            self.signals.__exit__(None, None, None)
+        if failure is not None:
+            message = (f"Bake stopped after {self.done} of {len(self.frames)} frames, nothing written "
+                       f"(a cache already at the path is as it was): {failure}")
+            self.signals.pass_on(message)
+            return False, message
+        return True, f"Baked {len(self.frames)} frames of {len(self.garments)} garments to {self.path}"
 
 
 def _export(path, start, end) -> str | None:

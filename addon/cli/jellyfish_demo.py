@@ -14,13 +14,13 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from ...addon.io import blender_versions
-from ...addon.io.image_io import contact_sheet
-from ...addon.jellyfish import animal as jellyfish
 from ...core.jellyfish import bell3d
 from ...core.jellyfish.fitness import fitness
 from ...core.jellyfish.stroke_search import GOAL_WEIGHTS, reference_scales
 from ...core.jellyfish.swimming import default_config, default_creature, simulate_cycle
+from ..io import blender_versions
+from ..io.image_io import contact_sheet
+from ..jellyfish import animal as jellyfish
 
 # the travel sheet: the start of every fourth cycle, 32 cycles; a stroke that swims more than SWIFT
 # bell diameters in its first cycle from rest is shown every cycle, so 8 cycles stay in the frame

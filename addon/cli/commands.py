@@ -49,11 +49,11 @@ SHEET_FRAMES = 5  # an animated scene's frames.png: this many frames, as fitted 
 
 
 def _cmd_demo(args) -> int:
-    from ...addon.io import mesh_io
-    from ...addon.layers import report as reports
-    from ...addon.layers import scene_roles
     from ...core.layering import metrics
     from ...sample_scenes import catalog, studio
+    from ..io import mesh_io
+    from ..layers import report as reports
+    from ..layers import scene_roles
 
     # each scene its own folder unless told: a second demo does not overwrite the first's
     out = Path(args.out or ("out/demo" if args.scene == "fig_4_12" else f"out/demo_{args.scene}")).resolve()
@@ -162,11 +162,11 @@ def _cmd_demo(args) -> int:
 def _frames_sheet(scene, objs, out, args) -> list:
     """frames.png: SHEET_FRAMES frames of the animation as fitted (top row) and as Resolve on Frame
     Change shows them in playback (bottom row, every frame played in order); returns metrics lines."""
-    from ...addon.io import mesh_io
-    from ...addon.io.image_io import contact_sheet
-    from ...addon.layers import frame_handler
     from ...core.layering import metrics
     from ...sample_scenes import studio
+    from ..io import mesh_io
+    from ..io.image_io import contact_sheet
+    from ..layers import frame_handler
 
     shown = np.linspace(scene.frame_start, scene.frame_end, SHEET_FRAMES).round().astype(int).tolist()
     size = (max(args.width // 2, 64), max(args.height // 2, 64))
@@ -222,10 +222,10 @@ class _Progress:
 
 def _cmd_scenes(args) -> int:
     """Build each bundled scene, save it (.blend, and .glb for the figures), render it."""
-    from ...addon.io import mesh_io
-    from ...addon.layers import scene_roles
     from ...core.layering import metrics
     from ...sample_scenes import catalog, dressed, studio
+    from ..io import mesh_io
+    from ..layers import scene_roles
 
     out = Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
