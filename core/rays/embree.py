@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.parallel import map_chunks
+from ..geometry.vectors import rows
 
 try:
     from embreex import rtcore as _rtc
@@ -58,3 +59,90 @@ def occluded(scene, center, threads, o, d, lo, span):
 def float32_dist(dist: np.ndarray) -> np.ndarray:
     # Embree's "no limit" is a huge finite float; inf also works but keep it explicit.
     return np.ascontiguousarray(np.minimum(dist, 1e37), dtype=np.float32)
+
+
+class EmbreeEngine:
+    """A RayScene's triangles traced by Embree: a float32 copy about ``center``, sharing its
+    buffers with Embree where the library can be reached directly (moved in place, ranges of it
+    built into scenes of their own for parts to instance), else copied flat by embreex."""
+
+    name = "embree"
+
+    def __init__(self, vertices, faces, center):
+        from . import embree_direct
+
+        self.center = center
+        self.scene = new_scene()
+        self.mesh = None
+        if embree_direct.available(new_scene):
+            self.mesh = embree_direct.Triangles(self.scene, vertices - center, faces)
+        else:
+            # The flat (m,3,3) constructor copies about 30% faster than the indexed one.
+            TriangleMesh(self.scene, vertices[faces] - center)
+
+    @property
+    def shares_buffers(self) -> bool:
+        """Whether it moves in place and has ranges for parts to instance."""
+        return self.mesh is not None
+
+    def move(self, centred_vertices) -> None:
+        self.mesh.move(centred_vertices)
+
+    def group(self, start, stop, geom_id):
+        from . import embree_direct
+
+        return embree_direct.Group(self.mesh, start, stop, geom_id=geom_id)
+
+    def instance_handles(self) -> list:
+        from . import embree_direct
+
+        return [embree_direct.handle_of(self.scene)]
+
+    def commit(self) -> None:
+        commit(self.scene)
+
+    def first_hits(self, rays, o, d, tmax, scaled):
+        """(t, face, uv) of the rays on the RayScene ``rays`` (its faces, float64 distances)."""
+        n = len(o)
+        tf = np.empty(n)
+        ff = np.empty(n, dtype=np.int64)
+        uv = np.empty((n, 2))
+
+        # Each worker converts, traces and refines its own slice, so the numpy work runs
+        # in parallel with tracing too (numpy and embreex both release the GIL).
+        def run(sl):
+            oo, dd, hi = o[sl], d[sl], tmax[sl]
+            org = np.ascontiguousarray(oo - self.center, dtype=np.float32)
+            r = self.scene.run(org, np.ascontiguousarray(dd, dtype=np.float32), dists=float32_dist(hi), output=1)
+            face = rays.faces_of(r["primID"].astype(np.int64), r["geomID"])
+            hit = face >= 0
+            idx = np.flatnonzero(hit)  # integer takes: boolean indexing of (n, 3) rows is slower
+            t = np.full(len(face), np.inf)
+            t[idx] = rays.refined_t(rows(oo, idx), rows(dd, idx), face[idx], r["tfar"][idx].astype(np.float64), hi[idx])
+            tf[sl], ff[sl] = t, face
+            uv[sl, 0] = np.where(hit, r["u"], 0.0)
+            uv[sl, 1] = np.where(hit, r["v"], 0.0)
+
+        if n * 4 >= len(rays.faces):
+            rays.planes()  # all faces, once, here rather than in every worker at the same time
+        self.commit()
+        map_chunks(run, n, MIN_RAYS_PER_CHUNK, rays.threads)
+        return tf, ff, uv
+
+    def occluded(self, rays, o, d, lo, tmax, scaled):
+        """Occlusion of the rays (from ``o`` + ``d`` x ``lo``, if given, up to ``tmax``)."""
+        return occluded(self.scene, self.center, rays.threads, o, d, lo, tmax if lo is None else tmax - lo)
+
+
+class EmbreeInstances(EmbreeEngine):
+    """A part of a RayScene: one Embree scene instancing the whole's ranges (``groups``)."""
+
+    def __init__(self, groups, center):
+        from . import embree_direct
+
+        self.center, self.groups, self.mesh = center, groups, None
+        self.scene = new_scene()
+        embree_direct.instance(self.scene, [g.handle for g in groups])
+
+    def instance_handles(self) -> list:
+        return [g.handle for g in self.groups]

@@ -7,6 +7,8 @@ import warnings
 
 import numpy as np
 
+from ..geometry.vectors import norms
+
 warned = False
 
 
@@ -42,3 +44,40 @@ def intersector(vertices, faces):
         return t, face
 
     return trace
+
+
+class NumpyEngine:
+    """A RayScene's triangles traced by trimesh's intersector (no embreex): along unit directions,
+    exact distances refined on the hit triangle's plane as Embree's are."""
+
+    name = "numpy"
+    shares_buffers = False
+
+    def __init__(self, vertices, faces, center):
+        self.center = center
+        self.trace = intersector(vertices, faces)
+
+    def commit(self) -> None:
+        pass
+
+    def instance_handles(self):
+        return None
+
+    def first_hits(self, rays, o, d, tmax, scaled):
+        scale = norms(d) if scaled else np.ones(len(d))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tf, ff = self.trace(o, d / scale[:, None], np.zeros(len(o)), tmax * scale)
+            tf = tf / scale
+        ff = rays.faces_of(ff, None)
+        hit = ff >= 0
+        tf[hit] = rays.refined_t(o[hit], d[hit], ff[hit], tf[hit], tmax[hit])
+        uv = np.zeros((len(ff), 2))
+        uv[hit] = rays.barycentric(o[hit] + d[hit] * tf[hit, None], ff[hit])
+        return tf, ff, uv
+
+    def occluded(self, rays, o, d, lo, tmax, scaled):
+        scale = norms(d) if scaled else np.ones(len(o))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            unit = d / scale[:, None]
+        start = np.zeros(len(o)) if lo is None else lo
+        return self.trace(o, unit, start * scale, tmax * scale)[1] >= 0

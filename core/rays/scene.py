@@ -12,12 +12,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.parallel import map_chunks, thread_count
+from ..geometry.parallel import thread_count
 from ..geometry.topology import used_vertices
 from ..geometry.vectors import box, cross, norms, rows
 from . import embree, embree_direct, numpy_backend
 
-__all__ = ["RayHits", "RayScene", "SceneUnion", "step_past_hit", "thread_count", "unit_rays"]
+__all__ = ["RayHits", "RayScene", "ScenePart", "SceneUnion", "step_past_hit", "thread_count", "unit_rays"]
+
+
+def engine_for(vertices, faces, center):
+    """The backend that traces these triangles: Embree when embreex is there, else numpy."""
+    if embree.HAVE_EMBREE:
+        return embree.EmbreeEngine(vertices, faces, center)
+    return numpy_backend.NumpyEngine(vertices, faces, center)
 
 class RayHits:
     """First hit per ray.
@@ -99,7 +106,8 @@ def _as_range(name: str, value, n: int, default: float) -> np.ndarray:
 
 
 class RayScene:
-    """Embree scene over one triangle set (``vertices`` (n,3), ``faces`` (m,3) int).
+    """First hits and occlusion against one triangle set (``vertices`` (n,3), ``faces`` (m,3) int),
+    traced by its backend (``engine_for``: embree.EmbreeEngine, else numpy_backend.NumpyEngine).
 
     ``threads`` defaults to :func:`thread_count`. Degenerate triangles are kept
     (indices stay valid) but can never be hit.
@@ -136,38 +144,24 @@ class RayScene:
         # a part reads its root's planes (it names the root's faces); None for a root, not self:
         # a scene referring to itself is freed only by the cycle collector, with its Embree memory
         self._plane_owner = None
-        self._face_base = self._face_map = self._parent = None
+        self._face_base = self._face_map = None
         self._groups, self._group_start = {}, []  # the BVHs parts instance, dropped on a move
         self._moves = getattr(self, "_moves", -1) + 1
         if in_place:
-            self._mesh.move(v - self._center)
+            self._engine.move(v - self._center)
             return
         self._used = np.flatnonzero(used_vertices(f, len(v)))
         # Re-centre before float32 so precision follows the scene's size, not its distance from 0.
         self._center = 0.5 * np.add(*box(rows(v, self._used))) if len(f) else np.zeros(3)
-        self._scene = None
-        self._mesh = None
-        self._fallback = None
-        if not len(f):
-            return
-        if embree.HAVE_EMBREE:
-            self._scene = embree.new_scene()
-            if embree_direct.available(embree.new_scene):
-                self._mesh = embree_direct.Triangles(self._scene, v - self._center, f)
-            else:
-                # The flat (m,3,3) constructor copies about 30% faster than the indexed one.
-                embree.TriangleMesh(self._scene, v[f] - self._center)
-        else:
-            self._fallback = numpy_backend.intersector(v, f)
+        self._engine = engine_for(v, f, self._center) if len(f) else None
 
     def update(self, vertices) -> None:
         """New positions for the same faces: written into the buffers Embree shares and
         committed again, unless the scene moved far from the centre it was built about (float32
         round-off grows with that distance), when it is built afresh."""
-        if self._parent is not None:
-            raise RuntimeError("a part of a scene cannot move: make it again from the moved scene")
         v = np.asarray(vertices)
-        in_place = self._mesh is not None and v.shape == self.vertices.shape and np.isfinite(v).all()
+        in_place = (self._engine is not None and self._engine.shares_buffers and v.shape == self.vertices.shape
+                    and np.isfinite(v).all())
         if in_place:
             used = v[self._used]
             lo, hi = box(used)
@@ -187,35 +181,18 @@ class RayScene:
             raise ValueError(f"face ranges must lie in 0..{len(self.faces)}, got {ranges}")
         if not ranges:
             return RayScene(np.zeros((0, 3)), np.zeros((0, 3), np.int64), threads=self.threads)
-        part = object.__new__(RayScene)
-        part.threads, part.vertices, part.faces, part._used = self.threads, self.vertices, self.faces, self._used
-        part._face_normals = part._planes = part._mesh = part._fallback = part._face_map = part._face_base = None
-        part._plane_owner, part._parent, part._parent_moves = self._plane_owner or self, self, self._moves
-        part._groups, part._group_start, part._moves = {}, [], 0
-        if self._mesh is not None:
-            groups = [self._group(a, b) for a, b in ranges]
-            part._scene = embree.new_scene()
-            embree_direct.instance(part._scene, [g.handle for g in groups])
-            part._center, part._held = self._center, groups
-            part._face_base = np.asarray(self._group_start, np.int64)  # geomID -> first face
-        else:
-            keep = np.concatenate([np.arange(a, b) for a, b in ranges])
-            flat = RayScene(self.vertices, self.faces[keep], threads=self.threads)
-            part._scene, part._fallback, part._center, part._held = flat._scene, flat._fallback, flat._center, flat
-            part._face_map = keep
-        return part
+        return ScenePart(self, ranges)
 
     def _group(self, start, stop):
         """Faces start..stop-1 as an Embree scene of their own (built on first use, kept)."""
         if (start, stop) not in self._groups:
-            self._groups[start, stop] = embree_direct.Group(self._mesh, start, stop, geom_id=len(self._group_start))
+            self._groups[start, stop] = self._engine.group(start, stop, geom_id=len(self._group_start))
             self._group_start.append(start)
         return self._groups[start, stop]
 
     def version(self):
         """What changes when the triangles this scene traces move."""
-        owner = self._parent if self._parent is not None else self
-        return id(owner), owner._moves
+        return id(self), self._moves
 
     @property
     def center(self) -> np.ndarray:
@@ -226,17 +203,12 @@ class RayScene:
         """Handles of the Embree scenes holding this scene's triangles, for another scene to
         instance (a part's own groups, not the part: Embree instances one level deep); None when
         this scene is not traced by Embree."""
-        if self._scene is None:
-            return None
-        if self._face_base is not None:
-            return [g.handle for g in self._held]
-        return [embree_direct.handle_of(self._scene)]
+        return None if self._engine is None else self._engine.instance_handles()
 
     def _check_fresh(self):
-        if self._parent is not None and self._parent._moves != self._parent_moves:
-            raise RuntimeError("the scene this part was made from has moved since: make the part again")
+        """A part raises when the scene it was made from has moved since."""
 
-    def _to_faces(self, prim, geom):
+    def faces_of(self, prim, geom):
         """Embree's (or the fallback's) primitive ids -> this scene's face ids (-1 stays)."""
         if self._face_base is not None:
             return np.where(prim >= 0, self._face_base[np.maximum(geom, 0)] + prim, -1)
@@ -258,7 +230,7 @@ class RayScene:
 
     @property
     def backend(self) -> str:
-        return "embree" if embree.HAVE_EMBREE else "numpy"
+        return self._engine.name if self._engine is not None else ("embree" if embree.HAVE_EMBREE else "numpy")
 
     def intersect(self, origins, directions, max_dist=None, min_dist=None, scaled=False) -> RayHits:
         """First hit of each ray with ``min_dist <= t <= max_dist`` (per ray or scalar).
@@ -279,7 +251,7 @@ class RayScene:
             tmin, idx = None, None  # every ray traced as given: no index copies
         else:
             idx = np.flatnonzero(tmax >= tmin)
-        if not len(self.faces) or (idx is not None and not len(idx)):
+        if self._engine is None or (idx is not None and not len(idx)):
             return RayHits(t, face, bary, self.normals_of)
         if idx is None:
             oo, dd, lo, hi = o, d, None, tmax
@@ -287,19 +259,7 @@ class RayScene:
             lo = tmin[idx]
             dd = rows(d, idx)
             oo, hi = rows(o, idx) + dd * lo[:, None], tmax[idx] - lo
-        if self._scene is not None:
-            tf, ff, uv = self._trace_embree(oo, dd, hi)
-        else:
-            # the numpy engine measures along unit directions
-            scale = norms(dd) if scaled else np.ones(len(dd))
-            with np.errstate(divide="ignore", invalid="ignore"):
-                tf, ff = self._fallback(oo, dd / scale[:, None], np.zeros(len(oo)), hi * scale)
-                tf = tf / scale
-            ff = self._to_faces(ff, None)
-            hit = ff >= 0
-            tf[hit] = self._refine_t(oo[hit], dd[hit], ff[hit], tf[hit], hi[hit])
-            uv = np.zeros((len(ff), 2))
-            uv[hit] = self._barycentric(oo[hit] + dd[hit] * tf[hit, None], ff[hit])
+        tf, ff, uv = self._engine.first_hits(self, oo, dd, hi, scaled)
         if lo is not None:
             tf += lo
         if idx is None:
@@ -314,55 +274,21 @@ class RayScene:
         are in units of each direction's length (an edge as origin and vector: 0..1)."""
         self._check_fresh()
         o, d, tmin, tmax, out, idx = _occlusion_rays(origins, directions, max_dist, min_dist, scaled)
-        if not len(self.faces) or idx is None:
+        if self._engine is None or idx is None:
             return out
-        if self._scene is None:
-            # the numpy engine measures along unit directions
-            scale = norms(d[idx]) if scaled else np.ones(len(o[idx]))
-            with np.errstate(divide="ignore", invalid="ignore"):
-                unit = d[idx] / scale[:, None]
-            out[idx] = self._fallback(o[idx], unit, tmin[idx] * scale, tmax[idx] * scale)[1] >= 0
-            return out
-        out[idx] = embree.occluded(self._scene, self._center, self.threads, o[idx], d[idx],
-                                    None if min_dist is None else tmin[idx], tmax[idx] - tmin[idx])
+        out[idx] = self._engine.occluded(self, o[idx], d[idx], None if min_dist is None else tmin[idx], tmax[idx],
+                                         scaled)
         return out
 
     def commit(self) -> None:
         """Build the acceleration structure now (else the first ray after a build or a move
         does), so callers can time the build apart from tracing."""
-        if self._scene is not None:
-            embree.commit(self._scene)
+        if self._engine is not None:
+            self._engine.commit()
 
-    def _map_chunks(self, fn, n):
-        self.commit()
-        return map_chunks(fn, n, embree.MIN_RAYS_PER_CHUNK, self.threads)
-
-    def _trace_embree(self, o, d, tmax):
-        n = len(o)
-        tf = np.empty(n)
-        ff = np.empty(n, dtype=np.int64)
-        uv = np.empty((n, 2))
-
-        # Each worker converts, traces and refines its own slice, so the numpy work runs
-        # in parallel with tracing too (numpy and embreex both release the GIL).
-        def run(sl):
-            oo, dd, hi = o[sl], d[sl], tmax[sl]
-            org = np.ascontiguousarray(oo - self._center, dtype=np.float32)
-            r = self._scene.run(org, np.ascontiguousarray(dd, dtype=np.float32), dists=embree.float32_dist(hi),
-                                output=1)
-            face = self._to_faces(r["primID"].astype(np.int64), r["geomID"])
-            hit = face >= 0
-            idx = np.flatnonzero(hit)  # integer takes: boolean indexing of (n, 3) rows is slower
-            t = np.full(len(face), np.inf)
-            t[idx] = self._refine_t(rows(oo, idx), rows(dd, idx), face[idx], r["tfar"][idx].astype(np.float64), hi[idx])
-            tf[sl], ff[sl] = t, face
-            uv[sl, 0] = np.where(hit, r["u"], 0.0)
-            uv[sl, 1] = np.where(hit, r["v"], 0.0)
-
-        if n * 4 >= len(self.faces):
-            self._plane_of()  # all faces, once, here rather than in every worker at the same time
-        self._map_chunks(run, n)
-        return tf, ff, uv
+    def planes(self):
+        """Every face's plane, worked out once and kept (an engine asks before many hits)."""
+        return self._plane_of()
 
     def _plane_of(self, face=None):
         """Per face (all, or just ``face``), the unnormalised normal, its dot with the first
@@ -393,7 +319,7 @@ class RayScene:
         out[:, 4] = np.sqrt(n[:, 0] ** 2 + n[:, 1] ** 2 + n[:, 2] ** 2)
         return out
 
-    def _refine_t(self, o, d, face, t32, tmax):
+    def refined_t(self, o, d, face, t32, tmax):
         """Float64 distance to the hit triangle's plane, kept inside [0, tmax]."""
         n, offset, length = self._plane_of(face)
         denom = n[:, 0] * d[:, 0] + n[:, 1] * d[:, 1] + n[:, 2] * d[:, 2]
@@ -404,7 +330,7 @@ class RayScene:
         t[bad] = t32[bad]
         return np.clip(t, 0.0, tmax)
 
-    def _barycentric(self, p, face):
+    def barycentric(self, p, face):
         tri = self.vertices[self.faces[face]]
         e1 = tri[:, 1] - tri[:, 0]
         e2 = tri[:, 2] - tri[:, 0]
@@ -419,6 +345,39 @@ class RayScene:
             u = (d22 * w1 - d12 * w2) / det
             v = (d11 * w2 - d12 * w1) / det
         return np.nan_to_num(np.column_stack([u, v]))
+
+
+class ScenePart(RayScene):
+    """Some of a RayScene's triangles (``RayScene.part``): it shares the whole's vertices and
+    names its faces; with Embree's shared buffers it instances the whole's ranges, else it is a
+    flat copy of them. It does not follow the whole's moves (asked after one, it raises)."""
+
+    def __init__(self, whole: RayScene, ranges):
+        self.threads, self.vertices, self.faces, self._used = whole.threads, whole.vertices, whole.faces, whole._used
+        self._face_normals = self._planes = self._face_map = self._face_base = None
+        self._plane_owner = whole._plane_owner or whole
+        self._whole, self._whole_moves = whole, whole._moves
+        self._groups, self._group_start, self._moves = {}, [], 0
+        if whole._engine.shares_buffers:
+            groups = [whole._group(a, b) for a, b in ranges]
+            self._center = whole._center
+            self._engine = embree.EmbreeInstances(groups, self._center)
+            self._face_base = np.asarray(whole._group_start, np.int64)  # geomID -> first face
+        else:
+            keep = np.concatenate([np.arange(a, b) for a, b in ranges])
+            self._flat = RayScene(whole.vertices, whole.faces[keep], threads=whole.threads)
+            self._center, self._engine = self._flat._center, self._flat._engine
+            self._face_map = keep
+
+    def update(self, vertices) -> None:
+        raise RuntimeError("a part of a scene cannot move: make it again from the moved scene")
+
+    def version(self):
+        return self._whole.version()
+
+    def _check_fresh(self):
+        if self._whole._moves != self._whole_moves:
+            raise RuntimeError("the scene this part was made from has moved since: make the part again")
 
 
 def _occlusion_rays(origins, directions, max_dist, min_dist, scaled):

@@ -205,11 +205,11 @@ def test_updated_scene_answers_for_the_moved_triangles(rng, stretch):
     scene = RayScene(v, f)
     assert embree_direct.available(embree.new_scene)  # the wheel CI installs
     o, d = random_rays(rng, 2000)
-    mesh = scene._mesh
+    engine = scene._engine
     for _ in range(3):
         v_new = v + rng.normal(scale=stretch, size=v.shape)
         scene.update(v_new)
-        assert scene._mesh is mesh  # written in place, not made anew
+        assert scene._engine is engine  # written in place, not made anew
         assert_matches_brute(scene, v_new, f, o, d, rtol=1e-5)
     # moved far off: built again about a new centre, still exact
     scene.update(v_new + 1e4)
