@@ -44,6 +44,8 @@ class BodyFacts:
         self._carried_junctions = {}
         self._junctions = {}
         self.prepared_kept = Cache(max_entries=KEEP_PREPARED, max_bytes=PREPARED_BYTES)
+        # the render engine's, apart: each object's nearest points on this body (probes.nearest_part)
+        self.nearest_kept = Cache(max_entries=KEEP_PREPARED)
 
     @property
     def normals(self) -> np.ndarray:
@@ -220,6 +222,7 @@ def forget_garments() -> None:
     resolving garments after it costs what newly draped garments on a known body cost."""
     for facts in BODIES.values():
         facts.prepared_kept.clear()
+        facts.nearest_kept.clear()
     forget_scenes()
 
 

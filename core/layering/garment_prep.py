@@ -16,6 +16,7 @@ from ..geometry.topology import faces_key, topology_of
 from ..geometry.vectors import box, norms, rows
 from .body_facts import frozen
 from .correspondence import BodyCorrespondence, closest_on_table, nearest_on_surface, nearest_within, triangle_table
+from .probes import part_at, radius_at
 from .segmentation import hull_normals, is_skirt, skirt_segments
 
 
@@ -178,8 +179,7 @@ class GarmentPrep:
             s = np.asarray(self.given_segments[i], dtype=np.int64)
             skirt = scheme is not None and bool((s == scheme.skirt).any())
         elif len(v):
-            corner = bf[c.triangle, np.argmax(c.bary, axis=1)]
-            s = body_seg[corner]
+            s, corner = part_at(c, bf, body_seg)
             if scheme is not None and is_skirt(f, s, scheme, vertices=v, body_vertices=bv, body_segments=body_seg):
                 s = skirt_segments(s, scheme)
                 skirt = True
@@ -193,7 +193,7 @@ class GarmentPrep:
                 n = n.copy()  # at_body keeps the body's own
                 n[on_skirt] = hull_normals(bv, body_seg, (scheme.torso, *scheme.skirt_spans), v[on_skirt])
         if self.local_probe and len(v):
-            lv = np.einsum("ij,ij->i", c.bary, self.radius[bf[c.triangle]])
+            lv = radius_at(c, bf, self.radius)
         else:
             lv = self.l_seg[s]
         if self.one_part:

@@ -2,11 +2,11 @@
 rule for the resolve (``probe_reach``, ``widened``) and for the DeformRT Layered render engine
 (``body_probes``), both widening a part's reach where loose cloth hangs (``widen``). Both take
 each part's l_s from BodyFacts.probe_lengths (the part's median radius, a skirt's its linked
-parts' farthest, overrides per part) or, without parts, the body's radius under each point. The
-resolve reads a garment vertex's part at its nearest body surface point (found once per garment
-and kept); the engine, for every object of every frame, at its nearest body vertex (a k-d tree
-query), the same part but at part borders, where a probe meets both parts' triangles anyway
-(the segment margin)."""
+parts' farthest, overrides per part) or, without parts, the body's radius under each point; and
+both read a point's part and radius where its nearest body surface point is (``part_at``,
+``radius_at``): the resolve for the garment points it finds once and keeps, the engine for every
+object of a frame (in a cache of its own, BodyFacts.nearest_kept, for the next frame of a still
+object)."""
 
 from __future__ import annotations
 
@@ -15,10 +15,25 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..geometry.keys import digest
-from ..geometry.vectors import norms, rows, size_of
+from ..geometry.vectors import size_of
 from .body_facts import body_facts, frozen
+from .correspondence import nearest_on_surface
 from .parameters import OFFSET_SHARE
 from .segmentation import get_scheme, is_skirt, skirt_segments
+
+
+def part_at(corr, body_faces, body_parts):
+    """(Each point's body part, the body vertex it is read at): the part of the corner of its
+    nearest body triangle that its nearest point lies closest to (the largest barycentric
+    weight). ``corr`` a BodyCorrespondence."""
+    corner = body_faces[corr.triangle, np.argmax(corr.bary, axis=1)]
+    return body_parts[corner], corner
+
+
+def radius_at(corr, body_faces, radius):
+    """The body's radius (one per body vertex) at each point's nearest body point, blended over
+    its triangle's corners."""
+    return np.einsum("ij,ij->i", corr.bary, radius[body_faces[corr.triangle]])
 
 
 @dataclass(frozen=True)
@@ -102,8 +117,7 @@ def body_probes(objects, layers, given=None, parts=None, scheme=None, traced=Non
     is no body, keep the default (None), as do those whose ``traced`` (one bool per object) is
     False: the outermost layer, which nothing is worn over, sends no probe. With parts, each part
     keeping its default widens as the resolve's does (``widen``: to its lower layers' farthest
-    point plus ``gap``, default the resolve's default offset), the distance taken to the nearest
-    body vertex (at most an edge farther than the nearest surface point the resolve measures)."""
+    point plus ``gap``, default the resolve's default offset)."""
     if given is not None and np.ndim(given) == 0:
         return float(given)
     if given is not None and parts is None:
@@ -115,44 +129,57 @@ def body_probes(objects, layers, given=None, parts=None, scheme=None, traced=Non
     traced = [True] * len(objects) if traced is None else traced
     parts = None if parts is None else np.asarray(parts, np.int64)
     scheme = None if scheme is None else get_scheme(scheme)
-    # a body vertex is its own nearest (a triangle's vertex sits in the tree at distance 0)
-    nearest = [None if lay is None or not go else (np.arange(len(v)), False) if i == body
-               else nearest_part(facts, v, f, parts, scheme)
-               for i, ((v, f), lay, go) in enumerate(zip(objects, layers, traced, strict=True))]
+    # a body vertex is its own nearest point, on the part its groups give it
+    found = [None if lay is None or not go else None if i == body else nearest_part(facts, v, f, parts, scheme)
+             for i, ((v, f), lay, go) in enumerate(zip(objects, layers, traced, strict=True))]
+    own = traced[body] and layers[body] is not None
     if parts is None:
-        return [None if found is None else facts.radius[found[0]] for found in nearest]
+        return [(facts.radius if own else None) if i == body else None if hit is None else hit.radius
+                for i, hit in enumerate(found)]
     if scheme is not None:
         count, links = len(scheme.parts), scheme.links()
     else:
         count = max(int(parts.max(initial=-1)) + 1, 0 if given is None else len(given))
         links = np.eye(count, dtype=bool)
     per_part = facts.probe_lengths(parts, count, links, given)
-    part_of = [None if found is None else skirt_segments(parts[found[0]], scheme) if found[1] else parts[found[0]]
-               for found in nearest]
+    part_of = [(parts if own else None) if i == body else None if hit is None else hit.part
+               for i, hit in enumerate(found)]
     # as the resolve: only cloth worn under another garment widens its part's reach
     top = max((lay for lay in layers if lay is not None), default=0)
-    lower = [i for i, found in enumerate(nearest) if found is not None and i != body and 0 < layers[i] < top]
+    lower = [i for i, hit in enumerate(found) if hit is not None and 0 < layers[i] < top]
     if lower:
         gap = OFFSET_SHARE * size_of(facts.vertices) if gap is None or gap <= 0 else float(gap)
-        distance = np.concatenate([norms(objects[i][0] - rows(facts.vertices, nearest[i][0])) for i in lower])
-        per_part = widen(per_part, distance, np.concatenate([part_of[i] for i in lower]), given, gap)
+        per_part = widen(per_part, np.concatenate([found[i].distance for i in lower]),
+                         np.concatenate([part_of[i] for i in lower]), given, gap)
     return [None if p is None else per_part[p] for p in part_of]
 
 
-def nearest_part(facts, vertices, faces, parts, scheme):
-    """(each garment vertex's nearest body vertex, whether the garment is a skirt under the
-    ``scheme`` the body's ``parts`` follow), kept with the body's facts: the next frame of a
-    garment that has not moved (a render after a light's tweak, a still garment in an
-    animation) finds it again instead of searching (30-40 ms a frame on Fig 4.13)."""
-    key = b"render nearest" + digest(vertices, faces, *(() if parts is None else (parts,))) + repr(scheme).encode()
-    found = facts.prepared(key)
-    if found is not None:
-        return found
-    search = facts.search
-    at = search.vertex_ids[search.tree.query(vertices, workers=-1)[1]]
-    skirt = bool(parts is not None and scheme is not None and len(faces)
-                 and is_skirt(faces, parts[at], scheme, vertices=vertices, body_vertices=facts.vertices,
-                              body_segments=parts))
-    found = (frozen(at), skirt)
-    facts.keep_prepared(key, found)
+@dataclass(frozen=True)
+class NearestOnBody:
+    """What the engine reads of an object's points at their nearest body points."""
+
+    part: np.ndarray | None  # body part per point (skirt segments for a skirt), None without parts
+    radius: np.ndarray  # the body's radius there
+    distance: np.ndarray  # to the body
+
+
+def nearest_part(facts, vertices, faces, parts, scheme) -> NearestOnBody:
+    """Each point's part, radius and distance at its nearest body surface point (``part_at``,
+    ``radius_at``), a skirt's points on the legs taking its segments as in the resolve; kept by
+    content, so the next frame of an object that has not moved (a render after a light's tweak,
+    a still garment in an animation) finds it again instead of searching."""
+    key = (digest(vertices, faces, *(() if parts is None else (parts,))), repr(scheme))
+    kept = facts.nearest_kept.get(key)
+    if kept is not None:
+        return kept
+    corr = nearest_on_surface(vertices, facts.vertices, facts.faces, search=facts.search)
+    part = None
+    if parts is not None:
+        part, _ = part_at(corr, facts.faces, parts)
+        if scheme is not None and len(faces) and is_skirt(faces, part, scheme, vertices=vertices,
+                                                          body_vertices=facts.vertices, body_segments=parts):
+            part = skirt_segments(part, scheme)
+    found = NearestOnBody(None if part is None else frozen(part), frozen(radius_at(corr, facts.faces, facts.radius)),
+                          frozen(corr.distance))
+    facts.nearest_kept.put(key, found)
     return found

@@ -2,7 +2,6 @@
 
 import numpy as np
 import trimesh
-from scipy.spatial import cKDTree
 
 from core.layering import probes, resolve_layers
 from sample_scenes.shapes import tube
@@ -55,10 +54,10 @@ def test_a_thin_parts_reach_widens_to_its_lower_layers_farthest_point(monkeypatc
 
 
 def test_the_render_engine_reaches_as_far_as_the_resolve():
-    """One rule: on the thin leg in loose trousers the render engine's probes (nearest body vertex)
-    take the part's reach the resolve takes (nearest surface point), widened the same way, within
-    the body's longest edge (the two nearest points' distances differ by less); the right leg
-    (no cloth) and the torso keep their radius in both; a reach the caller gave is the reach."""
+    """One rule: on the thin leg in loose trousers the render engine's probes take the reach the
+    resolve takes, widened the same way, point for point (both read the part at the nearest
+    surface point); the right leg (no cloth) and the torso keep their radius in both; a reach
+    the caller gave is the reach."""
     body, parts = _thin_legged()
     trousers = _loose_trousers()
     resolved = resolve_layers(body, trousers, body_segments=parts, scheme="S5")
@@ -66,14 +65,42 @@ def test_the_render_engine_reaches_as_far_as_the_resolve():
     objects = [(body.vertices, body.faces)] + [(t.vertices, t.faces) for t in trousers]
     engine = probes.body_probes(objects, [0, 1, 2], parts=parts, scheme="S5", traced=[True, True, False],
                                 gap=resolved.stats["offset"])
-    # how much farther a trouser point's nearest body vertex is than its nearest surface point
-    # (trimesh's exact closest points and a k-d tree: the references)
-    _, surface, _ = trimesh.proximity.closest_point(body, trousers[0].vertices)
-    vertex = cKDTree(body.vertices).query(trousers[0].vertices)[0]
-    np.testing.assert_allclose(engine[1], reach[4], atol=(vertex - surface).max() + 1e-9)  # the left leg's
+    np.testing.assert_array_equal(engine[1], np.asarray(reach)[resolved.segments[0]])
     assert engine[1].min() > 1.3 * resolved.stats["probe_distance"][3]  # widened past the leg's radius
     np.testing.assert_allclose(engine[0][parts == 3], reach[3], rtol=1e-9)
     np.testing.assert_allclose(engine[0][parts == 0], reach[0], rtol=1e-9)
     given = probes.body_probes(objects, [0, 1, 2], given=np.full(len(reach), 0.02), parts=parts, scheme="S5",
                                traced=[True, True, False])
     np.testing.assert_array_equal(given[1], 0.02)
+
+
+def test_a_points_part_and_radius_are_read_at_its_nearest_body_point():
+    """Against brute force: trimesh's exact closest points (triangle and point), their
+    barycentric weights, the part of the corner with the largest, the radius blended by them.
+    Points scattered round a torso on two legs, where the parts meet too."""
+    from core.layering.body_facts import body_facts
+
+    body, parts = _thin_legged()
+    rng = np.random.default_rng(5)
+    points = body.vertices[rng.integers(0, len(body.vertices), 600)] + rng.normal(scale=0.02, size=(600, 3))
+    facts = body_facts(body.vertices, body.faces)
+    found = probes.nearest_part(facts, points, np.zeros((0, 3), np.int64), parts, None)
+    closest, distance, triangle = trimesh.proximity.closest_point(body, points)
+    bary = trimesh.triangles.points_to_barycentric(body.triangles[triangle], closest)
+    corner = body.faces[triangle, np.argmax(bary, axis=1)]
+    # no tie: the largest weight clear of the next, and no other part's triangles as near (the
+    # legs' caps lie inside the torso, where two parts' surfaces can be equally near)
+    other = np.full(len(points), np.inf)
+    for p in np.unique(parts):
+        own = np.flatnonzero(parts[body.faces[:, 0]] == p)
+        near = trimesh.proximity.closest_point(body.submesh([own], append=True), points)[1]
+        other = np.where(parts[corner] != p, np.minimum(other, near), other)
+    weights = np.sort(bary, axis=1)
+    clear = (weights[:, -1] - weights[:, -2] > 1e-6) & (other - distance > 1e-6)
+    np.testing.assert_array_equal(found.part[clear], parts[corner][clear])
+    assert clear.mean() > 0.95
+    np.testing.assert_allclose(found.distance, distance, atol=1e-5)  # the pick is float32 (fcpw)
+    radius = np.einsum("ij,ij->i", bary, facts.radius[body.faces[triangle]])
+    np.testing.assert_allclose(found.radius[clear], radius[clear], atol=1e-6)
+    again = probes.nearest_part(facts, points, np.zeros((0, 3), np.int64), parts, None)
+    assert again is found  # kept for the next frame of what did not move
