@@ -87,11 +87,7 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
     timings = {}
     check_known(params)
     bv, bf, garr = read_meshes(body, garments)
-    previous = previous if _same_garments(previous, garr) else None
-    if previous is not None:
-        given = list(params.get("correspondence") or [None] * len(garr))
-        params = {**params, "correspondence": [c if c is not None else g
-                                                for c, g in zip(previous.found()[1], given, strict=True)]}
+    previous, params = _carried_in(previous, garr, params)
     flipped = inside_out(bv, bf)
     if flipped:
         bf = bf[:, ::-1]  # resolved as the body it is: the result is the same either way
@@ -108,30 +104,11 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
     timings["correspondence_s"] = time.perf_counter() - t0
 
     stack = LayerStack(facts, bv, garr, prep, p)
-    t0 = time.perf_counter()
-    lifts = [None] * len(garr)
-    held = (previous.lifts if previous is not None else None) or [None] * len(garr)
-    for k in stack.active:
-        lifts[k] = lift_off_body(stack, k, prep.corr[k].distance, held[k])
-        _relax(stack, k)
-        stack.rest[k] = stack.verts[k]  # what the body guard takes moves back to: the stages' moves, not the lift
-    timings["lift_s"] = time.perf_counter() - t0
+    lifts = _lift(stack, prep, previous, timings)
     _fit_layers(stack, timings)
-    for k in stack.active:  # what push and tuck tore (ends pushed along diverging normals), drawn in
-        out, drawn = shorten_torn(stack.fitted[k], stack.verts[k], stack.edges[k], MAX_TORN)
-        if drawn:
-            stack.moved(k, out)
-            stack.moved_by["relaxed"] += drawn
-    n_eased = 0
-    # how the cloth turned since: as the body triangle under each point did
-    body_turn = face_normals(bv, bf)
-    if previous is not None and previous.history is not None:  # no jolt from the last frames
-        for k in stack.active:
-            smoothed, count = eased(stack.verts[k], garr[k][0], k, previous.history, p.offset,
-                                    prep.corr[k].triangle, body_turn)
-            if count:
-                n_eased += count
-                stack.moved(k, smoothed)
+    _shorten_torn(stack)
+    body_turn = face_normals(bv, bf)  # how the cloth turned since: as the body triangle under each point did
+    n_eased = _ease(stack, garr, prep, previous, p.offset, body_turn)
     t0 = time.perf_counter()
     removed = _hidden_faces(stack) if p.remove_hidden else [np.zeros(len(f), dtype=bool) for f in stack.faces]
     last = previous if p.remove_hidden else None
@@ -150,6 +127,7 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
                             {**_stats(stack, prep, reach, removed, timings), "body_inside_out": flipped,
                              "vertices_eased": n_eased},
                             prep.complete if len(prep.active) < len(garr) else None)
+    # what the next frame carries on from (playback, frame bakes)
     result.frames_clear, result.frames_shown = clear, shown
     result.lifts = lifts
     result.history = History(moved, [v for v, _ in garr], body_turn,
@@ -157,6 +135,53 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
     result.body_radius = facts.radius_found
     result.body_junctions = facts.junctions_found()
     return result
+
+
+def _carried_in(previous, garr, params):
+    """(``previous`` if it is a result for these garments, else None; ``params`` with its body
+    points filling in where no correspondence was given)."""
+    previous = previous if _same_garments(previous, garr) else None
+    if previous is not None:
+        given = list(params.get("correspondence") or [None] * len(garr))
+        params = {**params, "correspondence": [c if c is not None else g
+                                                for c, g in zip(previous.found()[1], given, strict=True)]}
+    return previous, params
+
+
+def _lift(stack, prep, previous, timings) -> list:
+    """Every layer that takes part lifted off the body (body_lift) and its torn edges drawn back;
+    per garment the lift (None for one that does not take part)."""
+    t0 = time.perf_counter()
+    lifts = [None] * len(stack.verts)
+    held = (previous.lifts if previous is not None else None) or [None] * len(stack.verts)
+    for k in stack.active:
+        lifts[k] = lift_off_body(stack, k, prep.corr[k].distance, held[k])
+        _relax(stack, k)
+        stack.rest[k] = stack.verts[k]  # what the body guard takes moves back to: the stages' moves, not the lift
+    timings["lift_s"] = time.perf_counter() - t0
+    return lifts
+
+
+def _shorten_torn(stack) -> None:
+    """What push and tuck tore (ends pushed along diverging normals), drawn in."""
+    for k in stack.active:
+        out, drawn = shorten_torn(stack.fitted[k], stack.verts[k], stack.edges[k], MAX_TORN)
+        if drawn:
+            stack.moved(k, out)
+            stack.moved_by["relaxed"] += drawn
+
+
+def _ease(stack, garr, prep, previous, offset, body_turn) -> int:
+    """No jolt from the last frames (frame_coherence.eased); how many vertices were eased."""
+    if previous is None or previous.history is None:
+        return 0
+    count = 0
+    for k in stack.active:
+        smoothed, n = eased(stack.verts[k], garr[k][0], k, previous.history, offset, prep.corr[k].triangle, body_turn)
+        if n:
+            count += n
+            stack.moved(k, smoothed)
+    return count
 
 
 def _same_garments(previous, garr) -> bool:
