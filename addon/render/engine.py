@@ -24,7 +24,8 @@ import time
 import bpy
 import numpy as np
 
-from ...core.render.whitted import Image, Surfaces, camera_rays, render
+from ...core.render.surfaces import Surfaces
+from ...core.render.whitted import Image, RenderSettings, camera_rays, render
 from ..layers import staleness
 from .camera import SUPPORTED, image_shift, ortho_height, render_window, vertical_fov
 from .lights import lights, world_colour
@@ -109,10 +110,11 @@ class FrameTracer:
         """(image, depth) of rows start..stop-1, counted from the top."""
         t0 = time.perf_counter()
         sl = slice(start * self.width, stop * self.width)
-        img = render(self.scene, self.surfaces, self.lights, self.origins[sl], self.directions[sl],
-                     background=self.sky, ambient=np.asarray(self.sky), max_depth=self.max_depth,
-                     layered=self.layered, clip=(self._clip[0][sl], self._clip[1][sl]), unseen=self._unseen,
-                     shadowless=self._shadowless, unreflected=self._unreflected, unrefracted=self._unrefracted)
+        settings = RenderSettings(background=self.sky, ambient=np.asarray(self.sky), max_depth=self.max_depth,
+                                  layered=self.layered, clip=(self._clip[0][sl], self._clip[1][sl]),
+                                  unseen=self._unseen, shadowless=self._shadowless, unreflected=self._unreflected,
+                                  unrefracted=self._unrefracted)
+        img = render(self.scene, self.surfaces, self.lights, self.origins[sl], self.directions[sl], settings)
         self.seconds["trace_s"] += time.perf_counter() - t0
         return img, img.depth * self._to_depth[sl]
 

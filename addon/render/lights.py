@@ -4,7 +4,7 @@ and the world's colour as ambient light."""
 
 import numpy as np
 
-from ...core.render.whitted import Light
+from ...core.render.lighting import Light
 from ..io import blender_versions
 
 

@@ -4,7 +4,7 @@ Blinn-Phong shininess, emission; slot by slot."""
 
 import numpy as np
 
-from ...core.render.whitted import Material
+from ...core.render.surfaces import Material
 from ..io import blender_versions
 
 

@@ -5,7 +5,9 @@ import pytest
 import trimesh
 
 from core.render.layered_trace import LayeredScene
-from core.render.whitted import Light, Material, camera_rays, render
+from core.render.lighting import Light
+from core.render.surfaces import Material, Surfaces
+from core.render.whitted import RenderSettings, camera_rays, render
 from tests.core.layered_cases import sheet
 
 
@@ -91,12 +93,11 @@ def test_glass_slab_transmits_what_fresnel_leaves_with_every_internal_bounce():
     o, d = down_rays()
     below = lambda dirs: np.where(dirs[:, 2:3] < 0, 1.0, 0.0) * np.ones(3)  # noqa: E731
     r = ((1.5 - 1) / (1.5 + 1)) ** 2
-    img = render(scene, [Material(colour=(0, 0, 0), transmission=1.0, ior=1.5)], [], o, d, background=below,
-                 max_depth=12, cutoff=0.0)
+    glass = [Material(colour=(0, 0, 0), transmission=1.0, ior=1.5)]
+    img = render(scene, glass, [], o, d, RenderSettings(background=below, max_depth=12, cutoff=0.0))
     np.testing.assert_allclose(img.colour, (1 - r) / (1 + r), rtol=1e-6)
     # two bounces allowed: in and out only, (1 - R)^2
-    img = render(scene, [Material(colour=(0, 0, 0), transmission=1.0, ior=1.5)], [], o, d, background=below,
-                 max_depth=2, cutoff=0.0)
+    img = render(scene, glass, [], o, d, RenderSettings(background=below, max_depth=2, cutoff=0.0))
     np.testing.assert_allclose(img.colour, (1 - r) ** 2, rtol=1e-6)
 
 
@@ -106,7 +107,7 @@ def test_beer_lambert_through_a_known_thickness():
     scene = LayeredScene([(v, f)], [None])
     o, d = down_rays()
     img = render(scene, [Material(transmission=1.0, ior=1.0, absorption=tuple(sigma))], [], o, d,
-                 background=(1.0, 1.0, 1.0), cutoff=0.0)
+                 RenderSettings(background=(1.0, 1.0, 1.0), cutoff=0.0))
     np.testing.assert_allclose(img.colour, np.exp(-sigma * thickness)[None, :].repeat(len(o), 0), rtol=1e-6)
 
 
@@ -117,11 +118,11 @@ def test_mirror_recursion_stops_at_the_limit_and_at_the_importance_cutoff():
     scene = LayeredScene([lower, upper], [None, None])
     o, d = down_rays(n=1, z=0.5)
     full = Material(colour=(0, 0, 0), mirror=1.0)
-    img = render(scene, [full, full], [], o, d, max_depth=7, cutoff=0.0, background=(1, 1, 1))
+    img = render(scene, [full, full], [], o, d, RenderSettings(max_depth=7, cutoff=0.0, background=(1, 1, 1)))
     assert img.stats["deepest"] == 7 and img.stats["rays"] == 8
     np.testing.assert_allclose(img.colour, 0.0)  # never escapes
     half = Material(colour=(0, 0, 0), mirror=0.5)
-    img = render(scene, [half, half], [], o, d, max_depth=50, cutoff=0.1)
+    img = render(scene, [half, half], [], o, d, RenderSettings(max_depth=50, cutoff=0.1))
     assert img.stats["deepest"] == 3 and img.stats["cut_by_importance"] == 1
 
 
@@ -136,22 +137,22 @@ def test_clipping_cuts_what_camera_rays_see_and_not_what_they_reflect():
     o, d = down_rays(n=3)
     colours = [Material(colour=c) for c in ((1, 0, 0), (0, 1, 0), (0, 0, 1))]
     sun = [Light("SUN", (0, 0, -1), (1.0, 1.0, 1.0))]
-    img = render(scene, colours, sun, o, d, clip=(0.1, 2.0))
+    img = render(scene, colours, sun, o, d, RenderSettings(clip=(0.1, 2.0)))
     np.testing.assert_array_equal(img.index, 1)
     np.testing.assert_allclose(img.depth, 0.5)
     mirror = [colours[0], Material(colour=(0, 0, 0), mirror=1.0), colours[2]]
-    img = render(scene, mirror, [], o, d, clip=(0.1, 0.6), ambient=0.5)
+    img = render(scene, mirror, [], o, d, RenderSettings(clip=(0.1, 0.6), ambient=0.5))
     np.testing.assert_array_equal(img.index, 1)
     np.testing.assert_allclose(img.colour, np.tile([0.5, 0.0, 0.0], (len(o), 1)))  # the red sheet's ambient
-    img = render(scene, colours, sun, o, d, clip=(0.01, 2.0))
+    img = render(scene, colours, sun, o, d, RenderSettings(clip=(0.01, 2.0)))
     np.testing.assert_array_equal(img.index, 0)
     np.testing.assert_allclose(img.depth, 0.05)
-    img = render(scene, colours, sun, o, d, clip=(0.1, 0.4), background=(0.2, 0.3, 0.4))
+    img = render(scene, colours, sun, o, d, RenderSettings(clip=(0.1, 0.4), background=(0.2, 0.3, 0.4)))
     np.testing.assert_array_equal(img.index, -1)
     assert np.isinf(img.depth).all()
     np.testing.assert_allclose(img.colour, np.tile([0.2, 0.3, 0.4], (len(o), 1)))
     with pytest.raises(ValueError, match="clip"):
-        render(scene, colours, sun, o, d, clip=(0.5, 0.5))
+        render(scene, colours, sun, o, d, RenderSettings(clip=(0.5, 0.5)))
 
 
 def test_a_shifted_lens_moves_the_view_and_keeps_its_perspective():
@@ -191,7 +192,7 @@ def test_an_object_unseen_by_the_camera_shows_what_is_behind_it_and_still_shadow
     o, d = down_rays(n=3)
     mats = [Material(colour=(1, 0, 0)), Material(colour=(0, 1, 0))]
     sun = [Light("SUN", (0, 0, -1), (1.0, 1.0, 1.0))]
-    img = render(scene, mats, sun, o, d, ambient=0.5, unseen=[True, False])
+    img = render(scene, mats, sun, o, d, RenderSettings(ambient=0.5, unseen=[True, False]))
     np.testing.assert_array_equal(img.index, 1)
     np.testing.assert_allclose(img.depth, 1.0)
     np.testing.assert_allclose(img.colour, np.tile([0.0, 0.5, 0.0], (len(o), 1)))
@@ -200,7 +201,7 @@ def test_an_object_unseen_by_the_camera_shows_what_is_behind_it_and_still_shadow
     np.testing.assert_array_equal(vis.obj, 1)
     assert vis.skipped == 0
     mirror = [mats[0], Material(colour=(0, 0, 0), mirror=1.0)]
-    img = render(scene, mirror, [], o, d, ambient=0.5, unseen=[True, False])
+    img = render(scene, mirror, [], o, d, RenderSettings(ambient=0.5, unseen=[True, False]))
     np.testing.assert_allclose(img.colour, np.tile([0.5, 0.0, 0.0], (len(o), 1)))  # the sheet, in the mirror
 
 
@@ -213,21 +214,21 @@ def test_objects_off_for_glossy_shadow_or_transmission_rays_are_passed_by_those_
     o, d = down_rays(n=3)
     red = Material(colour=(1, 0, 0))
     mirror = [red, Material(colour=(0, 0, 0), mirror=1.0)]
-    seen = render(scene, mirror, [], o, d, ambient=0.5, unseen=[True, False])
-    gone = render(scene, mirror, [], o, d, ambient=0.5, unseen=[True, False], unreflected=[True, False])
+    seen = render(scene, mirror, [], o, d, RenderSettings(ambient=0.5, unseen=[True, False]))
+    gone = render(scene, mirror, [], o, d, RenderSettings(ambient=0.5, unseen=[True, False], unreflected=[True, False]))
     np.testing.assert_allclose(seen.colour, np.tile([0.5, 0.0, 0.0], (len(o), 1)))
     np.testing.assert_allclose(gone.colour, 0.0)
     sun = [Light("SUN", (0, 0, -1), (1.0, 1.0, 1.0))]
     matte = [red, Material(colour=(0, 1, 0))]
-    shaded = render(scene, matte, sun, o, d, unseen=[True, False])
-    lit = render(scene, matte, sun, o, d, unseen=[True, False], shadowless=[True, False])
+    shaded = render(scene, matte, sun, o, d, RenderSettings(unseen=[True, False]))
+    lit = render(scene, matte, sun, o, d, RenderSettings(unseen=[True, False], shadowless=[True, False]))
     np.testing.assert_allclose(shaded.colour, 0.0)
     np.testing.assert_allclose(lit.colour, np.tile([0.0, 1.0, 0.0], (len(o), 1)), rtol=1e-9)  # albedo x E cos 0
     # from below the floor, looking up through a clear glass floor at the sheet over it
     up = o * [1, 1, -1], -d
     glass = [red, Material(colour=(1, 1, 1), transmission=1.0, ior=1.0)]
-    through = render(scene, glass, [], *up, ambient=0.5)
-    cut = render(scene, glass, [], *up, ambient=0.5, unrefracted=[True, False])
+    through = render(scene, glass, [], *up, RenderSettings(ambient=0.5))
+    cut = render(scene, glass, [], *up, RenderSettings(ambient=0.5, unrefracted=[True, False]))
     np.testing.assert_allclose(through.colour, np.tile([0.5, 0.0, 0.0], (len(o), 1)), atol=1e-9)
     np.testing.assert_allclose(cut.colour, 0.0, atol=1e-9)
     np.testing.assert_array_equal(cut.index, 1)  # the camera still sees the glass
@@ -526,7 +527,7 @@ def test_a_lower_layer_poking_out_within_the_probe_distance_casts_no_shadow():
     img = render(scene, mats, sun, o, d)
     assert (img.index == 1).all()
     np.testing.assert_allclose(img.colour, np.tile([0, 0, np.sqrt(0.5)], (5, 1)), rtol=1e-9)
-    np.testing.assert_array_equal(render(scene, mats, sun, o, d, layered=False).colour, 0.0)
+    np.testing.assert_array_equal(render(scene, mats, sun, o, d, RenderSettings(layered=False)).colour, 0.0)
 
 
 def test_probe_distance_per_vertex_follows_the_body_under_each_garment():
@@ -562,7 +563,7 @@ def test_bad_input_is_refused(bad, match):
     o, d = down_rays(n=1)
     args = dict(materials=[Material()], lights=[Light("SUN", (0, 0, -1))], max_depth=2) | bad
     with pytest.raises(ValueError, match=match):
-        render(scene, args["materials"], args["lights"], o, d, max_depth=args["max_depth"])
+        render(scene, args["materials"], args["lights"], o, d, RenderSettings(max_depth=args["max_depth"]))
     with pytest.raises(ValueError, match="field of view"):
         camera_rays(np.eye(4), 0.0, 4, 4)
     with pytest.raises(ValueError, match="layers"):
@@ -577,7 +578,7 @@ def test_faces_take_their_slots_material_and_bad_slots_are_refused():
     slot = (v[f].mean(1)[:, 0] > 0).astype(int)
     red, green = Material(colour=(0.9, 0.1, 0.1)), Material(colour=(0.1, 0.8, 0.2))
     sun = [Light("SUN", (0, 0, -1), (1, 1, 1))]
-    img = render(scene, [[red, green]], sun, o, d, face_slots=[slot])
+    img = render(scene, Surfaces.build(scene, [[red, green]], face_slots=[slot]), sun, o, d)
     on = slot[scene.first_visible(o, d).face]  # the slot of the face each ray meets
     np.testing.assert_allclose(img.colour, np.where((on == 1)[:, None], green.colour, red.colour), rtol=1e-12)
     assert 0 < on.mean() < 1
@@ -586,7 +587,7 @@ def test_faces_take_their_slots_material_and_bad_slots_are_refused():
     np.testing.assert_array_equal(render(scene, [[red, green]], sun, o, d).colour, lone)
     for bad, match in (([slot[:-1]], "one slot per face"), ([slot, slot], "one entry per object")):
         with pytest.raises(ValueError, match=match):
-            render(scene, [[red, green]], sun, o, d, face_slots=bad)
+            render(scene, Surfaces.build(scene, [[red, green]], face_slots=bad), sun, o, d)
     with pytest.raises(ValueError, match="non-empty list"):
         render(scene, [[]], sun, o, d)
 
@@ -604,10 +605,11 @@ def test_a_texture_is_read_at_the_hits_uv_bilinear_and_repeating():
     o = np.column_stack([at - 0.5, np.ones(len(at))])
     d = np.tile([0.0, 0.0, -1.0], (len(o), 1))
     uv = v[f][..., :2] + 0.5
-    img = render(scene, [cloth], sun, o, d, face_uvs=[uv])  # barycentrics come in float32: 1e-6
+    img = render(scene, Surfaces.build(scene, [cloth], face_uvs=[uv]), sun, o, d)  # barycentrics come in float32: 1e-6
     want = [texels[0, 0], texels[0, 1], texels[1, 0], texels[1, 1], texels[0].mean(0), texels.mean((0, 1))]
     np.testing.assert_allclose(img.colour, want, atol=1e-6)
-    shifted = render(scene, [cloth], sun, o, d, face_uvs=[uv + [3.0, -2.0]])  # whole repeats: the same
+    # whole repeats: the same
+    shifted = render(scene, Surfaces.build(scene, [cloth], face_uvs=[uv + [3.0, -2.0]]), sun, o, d)
     np.testing.assert_allclose(shifted.colour, want, atol=1e-6)
     # no UVs given: every hit at UV (0, 0), the mean of the four corners' texels there
     np.testing.assert_allclose(render(scene, [cloth], sun, o, d).colour, np.tile(texels.mean((0, 1)), (len(o), 1)),
@@ -615,7 +617,7 @@ def test_a_texture_is_read_at_the_hits_uv_bilinear_and_repeating():
     with pytest.raises(ValueError, match="texture"):
         render(scene, [Material(texture=np.zeros((2, 2)))], sun, o, d)
     with pytest.raises(ValueError, match="face_uvs"):
-        render(scene, [cloth], sun, o, d, face_uvs=[uv[:-1]])
+        render(scene, Surfaces.build(scene, [cloth], face_uvs=[uv[:-1]]), sun, o, d)
 
 
 def test_flat_corner_normals_shade_each_face_by_its_own_normal():
@@ -627,7 +629,7 @@ def test_flat_corner_normals_shade_each_face_by_its_own_normal():
     to_sun = np.array([0.3, 0.2, 1.0]) / np.linalg.norm([0.3, 0.2, 1.0])
     sun = [Light("SUN", tuple(-to_sun), (1, 1, 1))]
     o, d = down_rays(n=15, z=3.0, spread=0.7)
-    img = render(scene, [Material(colour=(1, 1, 1))], sun, o, d, corner_normals=[flat])
+    img = render(scene, Surfaces.build(scene, [Material(colour=(1, 1, 1))], corner_normals=[flat]), sun, o, d)
     face = scene.first_visible(o, d).face
     lit = np.maximum(0.0, sphere.face_normals[face] @ to_sun)
     shown = img.index >= 0
@@ -636,7 +638,7 @@ def test_flat_corner_normals_shade_each_face_by_its_own_normal():
     smooth = render(scene, [Material(colour=(1, 1, 1))], sun, o, d)
     assert np.abs(smooth.colour[shown] - img.colour[shown]).max() > 0.05
     with pytest.raises(ValueError, match="corner_normals"):
-        render(scene, [Material()], sun, o, d, corner_normals=[flat[:-1]])
+        render(scene, Surfaces.build(scene, [Material()], corner_normals=[flat[:-1]]), sun, o, d)
 
 
 def _exact_fresnel(cos_i, n1, n2):
