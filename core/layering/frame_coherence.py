@@ -11,8 +11,8 @@ accelerates 2.5 mm (p99). Two rules keep it as smooth as the cloth:
   last crossed, so a face crossing every other frame does not blink; a face shown again stays
   shown two frames at least.
 - **The correction's acceleration bounded**: from the last two frames' corrections, each turned
-  with the cloth (the least rotation taking the normal of the body triangle under the point
-  then to its normal now), the next is
+  with the body under the point (the least rotation taking the body's normal there then to its
+  normal now, at the point's body point now), the next is
   predicted (constant velocity); the new one may differ from the prediction by JERK offsets plus
   MOTION_SHARE of how much the cloth itself accelerated at that vertex. A flip between two valid
   corrections is spread over frames; a fast move (a kick, a jump cut in a capture) still gets the
@@ -23,17 +23,19 @@ accelerates 2.5 mm (p99). Two rules keep it as smooth as the cloth:
   kept fixed in world space while a limb turns, the last correction pointed ever further from
   this frame's, the bounded step toward it went sideways, and the length never came down (a
   T-pose to gym blend: a 56 mm lift held for 8 frames where the frame's own fell to 26 mm). Turned
-  as the body triangle turned, which moves smoothly however the point's body point changes; not
-  with the posed cloth's own normals (they swing by tens of degrees a frame in folds: jitter max
-  3 -> 25 mm on the rest-to-run ramp) nor with its global normals (they jump where the body point
-  goes to another part: 4 -> 41 mm).
+  as the body turned at the point's body point now (its vertex normals, blended there, then and
+  now), which moves smoothly however the point's body point changes, and only as far as a body
+  turns in a frame (``followed``); not with the posed cloth's own normals (they swing by tens of
+  degrees a frame in folds: jitter max 3 -> 25 mm on the rest-to-run ramp), nor with its global
+  normals (they jump where the body point goes to another part: 4 -> 41 mm), nor with the face
+  normal of the body triangle under it (a skinned triangle folding at a joint flips: 10 -> 96 mm).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.vectors import cross, norms, rows
+from ..geometry.vectors import cross, norms, rows, unit
 
 HIDE_HOLD = 3
 JERK = 0.5  # offsets d per frame per frame (about 1 mm on a person)
@@ -42,7 +44,7 @@ MOTION_SHARE = 0.15
 
 class History:
     """What the next frame needs of this one and the one before: per garment the correction and the
-    posed vertices it was made for, and the body's face normals (arrays only: no chain of earlier
+    posed vertices it was made for, and the body's vertex normals (arrays only: no chain of earlier
     results)."""
 
     def __init__(self, moved, posed, body_normals, earlier=None):
@@ -64,6 +66,23 @@ def turned(d, a, b):
     out = d.copy()
     out[ok] = v * cc[:, None] + cross(k, v) + k * (np.einsum("ij,ij->i", k, v) / (1.0 + cc))[:, None]
     return out
+
+
+# How far the body under a point may turn in one frame and the last corrections turn with it:
+# wholly up to TURN_FULL, fading out by TURN_NONE. Skinned skin folding at a joint (linear blend
+# skinning in extreme poses) flips its normals by 90-130 degrees in a frame; that is no turn of the
+# cloth, and corrections turned with it jumped 50-96 mm.
+TURN_FULL, TURN_NONE = 10.0, 20.0  # degrees a frame
+
+
+def followed(d, a, b, frames=1):
+    """``d`` turned as the body under it turned from normal ``a`` to ``b`` (``turned``) over
+    ``frames`` frames, wholly where it turned by at most TURN_FULL degrees a frame, not at all
+    beyond TURN_NONE, in between in part."""
+    c = np.einsum("ij,ij->i", a, b)
+    full, none = np.cos(np.radians(np.minimum(frames * np.array([TURN_FULL, TURN_NONE]), 180.0)))
+    share = np.clip((c - none) / (full - none), 0.0, 1.0)
+    return d + share[:, None] * (turned(d, a, b) - d)
 
 
 def held_hidden(crossing, previous_removed, previous_clear, previous_shown):
@@ -89,20 +108,23 @@ def held_hidden(crossing, previous_removed, previous_clear, previous_shown):
     return removed, clear, shown
 
 
-def eased(vertices, posed, k, history: History, offset: float, triangle, body_normals):
-    """Layer k's resolved ``vertices`` (posed at ``posed``; ``triangle`` each one's body triangle,
-    ``body_normals`` the body's face normals this frame) with the correction's change from the
+def eased(vertices, posed, k, history: History, offset: float, binding, body_normals, body_faces):
+    """Layer k's resolved ``vertices`` (posed at ``posed``; ``binding`` their BodyCorrespondence,
+    ``body_normals`` the body's vertex normals this frame) with the correction's change from the
     constant-velocity prediction bounded (module docstring), and how many vertices were bounded;
     (None, 0) where none is."""
-    now = rows(body_normals, triangle)
+    def normal_at(normals):  # the body's normal at each point's body point, in those normals
+        return unit(np.einsum("ij,ijk->ik", binding.bary, rows(normals, rows(body_faces, binding.triangle))))
 
-    def turned_since(d, normals):
-        # a body of other faces than then (another mesh): kept as it was
-        return turned(d, rows(normals, triangle), now) if len(normals) == len(body_normals) else d
+    now = normal_at(body_normals)
 
-    d1, x1 = turned_since(history.moved[k], history.body_normals), history.posed[k]
+    def turned_since(d, normals, frames):
+        # a body of other vertices than then (another mesh): kept as it was
+        return followed(d, normal_at(normals), now, frames) if len(normals) == len(body_normals) else d
+
+    d1, x1 = turned_since(history.moved[k], history.body_normals, 1), history.posed[k]
     if history.moved_before is not None:
-        d2, x2 = turned_since(history.moved_before[k], history.body_normals_before), history.posed_before[k]
+        d2, x2 = turned_since(history.moved_before[k], history.body_normals_before, 2), history.posed_before[k]
     else:
         d2, x2 = d1, x1
     predicted = 2.0 * d1 - d2

@@ -15,7 +15,6 @@ import time
 import numpy as np
 import trimesh
 
-from ..geometry.normals import face_normals
 from .body_facts import body_facts
 from .body_guard import keep_out_of_body
 from .body_lift import lift_off_body
@@ -107,7 +106,7 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
     lifts = _lift(stack, prep, previous, timings)
     _fit_layers(stack, timings)
     _shorten_torn(stack)
-    body_turn = face_normals(bv, bf)  # how the cloth turned since: as the body triangle under each point did
+    body_turn = facts.normals  # how the cloth turned since: as the body under each point did
     n_eased = _ease(stack, garr, prep, previous, p.offset, body_turn)
     t0 = time.perf_counter()
     removed = _hidden_faces(stack) if p.remove_hidden else [np.zeros(len(f), dtype=bool) for f in stack.faces]
@@ -177,7 +176,8 @@ def _ease(stack, garr, prep, previous, offset, body_turn) -> int:
         return 0
     count = 0
     for k in stack.active:
-        smoothed, n = eased(stack.verts[k], garr[k][0], k, previous.history, offset, prep.corr[k].triangle, body_turn)
+        smoothed, n = eased(stack.verts[k], garr[k][0], k, previous.history, offset, prep.corr[k], body_turn,
+                            stack.body.faces)
         if n:
             count += n
             stack.moved(k, smoothed)

@@ -270,29 +270,54 @@ def test_a_vector_is_turned_by_the_least_rotation_between_two_normals():
 
 def test_a_lift_that_turns_with_the_cloth_eases_along_the_cloth_not_across_it():
     """A cloth point on the axis a body patch turns about (it does not move; the patch's normal
-    turns 30 degrees a frame) lifted 10 mm along that normal for two frames, 5 mm the third: turned
-    with the body, the constant-velocity prediction is 10 mm along this frame's normal, so the
-    eased correction is along this normal, JERK offsets shorter than 10 mm. Kept in world space, the last corrections
-    point 30 and 60 degrees away and the bounded step toward this frame's goes sideways (a lift
-    that never came down in a turning limb)."""
+    turns 8 degrees a frame, as a limb swung fast) lifted 10 mm along that normal for two frames,
+    5 mm the third: turned with the body, the constant-velocity prediction is 10 mm along this
+    frame's normal, so the eased correction is along this normal, JERK offsets shorter than 10 mm.
+    Kept in world space, the last corrections point 8 and 16 degrees away and the bounded step
+    toward this frame's goes sideways (a lift that never came down in a turning limb)."""
     from scipy.spatial.transform import Rotation
 
-    from core.geometry.normals import face_normals
+    from core.geometry.normals import vertex_normals
     from core.layering.frame_coherence import JERK, History, eased
 
     ring = np.array([[np.cos(t), np.sin(t), 0.0] for t in np.linspace(0, 2 * np.pi, 8, endpoint=False)]) * 0.02
     rest = np.vstack([[0.0, 0.0, 0.0], ring])
     faces = np.array([[0, 1 + i, 1 + (i + 1) % 8] for i in range(8)])
     offset = 0.002
+    on = BodyCorrespondence(np.full(len(rest), 3), np.full((len(rest), 3), 1 / 3), np.zeros(len(rest)))
     history = None
     for frame, lift in enumerate((0.010, 0.010, 0.005)):
-        posed = Rotation.from_euler("x", 30 * frame, degrees=True).apply(rest)
-        body_normals = face_normals(posed, faces)  # the cloth lies on this patch of body, on face 3
-        on = np.full(len(posed), 3)
-        resolved = posed + lift * body_normals[on]
+        posed = Rotation.from_euler("x", 8 * frame, degrees=True).apply(rest)
+        body_normals = vertex_normals(posed, faces)  # the cloth lies on this patch of body
+        resolved = posed + lift * body_normals[0]
         if history is not None:
-            out, count = eased(resolved, posed, 0, history, offset, on, body_normals)
+            out, count = eased(resolved, posed, 0, history, offset, on, body_normals, faces)
             resolved = out if count else resolved
         history = History([resolved - posed], [posed], body_normals, history)
     d = resolved[0] - posed[0]
-    np.testing.assert_allclose(d, (0.010 - JERK * offset) * body_normals[3], atol=1e-12)
+    np.testing.assert_allclose(d, (0.010 - JERK * offset) * body_normals[0], atol=1e-12)
+
+
+def test_a_body_that_flips_in_a_frame_does_not_turn_the_correction():
+    """Skin folding through itself at a joint flips its normal; that is no turn of the cloth. Up to
+    TURN_FULL degrees a frame a correction turns wholly, beyond TURN_NONE not at all, in between in
+    part; over two frames, twice that."""
+    from scipy.spatial.transform import Rotation
+
+    from core.layering.frame_coherence import TURN_FULL, TURN_NONE, followed, turned
+
+    angles = [0.5 * TURN_FULL, 0.5 * (TURN_FULL + TURN_NONE), 1.5 * TURN_NONE, 130.0]
+    d = np.array([[0.0, 0.0, 0.01]] * 4)
+    a = np.array([[0.0, 0.0, 1.0]] * 4)
+    b = np.array([Rotation.from_euler("x", t, degrees=True).apply([0.0, 0.0, 1.0]) for t in angles])
+    out = followed(d, a, b)
+    np.testing.assert_allclose(out[0], turned(d, a, b)[0], atol=1e-15)
+    np.testing.assert_array_equal(out[2:], d[2:])
+    cos = np.cos(np.radians([angles[1], TURN_FULL, TURN_NONE]))
+    share = (cos[0] - cos[2]) / (cos[1] - cos[2])
+    np.testing.assert_allclose(out[1], d[1] + share * (turned(d, a, b)[1] - d[1]), atol=1e-15)
+    assert 0 < share < 1
+    two = followed(d, a, b, frames=2)
+    np.testing.assert_allclose(two[:2], turned(d, a, b)[:2], atol=1e-15)  # within twice the full turn
+    assert 0 < np.linalg.norm(two[2] - d[2]) < np.linalg.norm(turned(d, a, b)[2] - d[2])
+    np.testing.assert_array_equal(two[3], d[3])
