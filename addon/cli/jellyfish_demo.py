@@ -18,7 +18,7 @@ from ...core.jellyfish import bell3d
 from ...core.jellyfish.fitness import fitness
 from ...core.jellyfish.stroke_search import GOAL_WEIGHTS, reference_scales
 from ...core.jellyfish.swimming import default_config, default_creature, simulate_cycle
-from ..io import blender_versions
+from ..io import blender_versions, mesh_io
 from ..io.image_io import contact_sheet
 from ..jellyfish import animal as jellyfish
 
@@ -51,14 +51,7 @@ def _markers(at, size):
 
 def _bell_points(bell, n):
     """The first n vertices of the bell as evaluated now, in its own space."""
-    ev = bell.evaluated_get(bpy.context.evaluated_depsgraph_get())
-    mesh = ev.to_mesh()
-    try:
-        co = np.empty(len(mesh.vertices) * 3)
-        mesh.vertices.foreach_get("co", co)
-    finally:
-        ev.to_mesh_clear()
-    return co.reshape(-1, 3)[:n]
+    return mesh_io.read_mesh(bell, bpy.context.evaluated_depsgraph_get(), world=False).vertices[:n]
 
 
 def _bell_top(bell, n):
