@@ -11,7 +11,19 @@ import time
 
 class DeformRTOperator:
     """Refusals: core and the services raise ValueError or RuntimeError with a sentence a user can
-    act on; the operator reports it and changes nothing."""
+    act on; the operator reports it and changes nothing. Before it runs, ``unavailable(context)``
+    says why it cannot (greyed out, the sentence as the tooltip), or None."""
+
+    @classmethod
+    def poll(cls, context):
+        why = cls.unavailable(context)
+        if why:
+            cls.poll_message_set(why)
+        return not why
+
+    @classmethod
+    def unavailable(cls, context) -> str | None:
+        return None
 
     def fail(self, exc) -> set:
         self.report({"ERROR"}, str(exc))

@@ -23,11 +23,10 @@ WATERS = tuple((w.key, w.label, w.description) for w in WATER_KINDS.values())
 
 class _NeedsJellyfish:
     @classmethod
-    def poll(cls, context):
+    def unavailable(cls, context):
         if jellyfish.jellyfish_of(context.active_object) is None:
-            cls.poll_message_set("Select a jellyfish made with Add Jellyfish")
-            return False
-        return True
+            return "Select a jellyfish made with Add Jellyfish"
+        return None
 
 
 class DEFORMRT_OT_add_jellyfish(DeformRTOperator, bpy.types.Operator):

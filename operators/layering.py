@@ -10,11 +10,10 @@ from .base import BackgroundOperator, DeformRTOperator, SteppedOperator
 
 class _NeedsGarments:
     @classmethod
-    def poll(cls, context):
+    def unavailable(cls, context):
         if context.scene is None or not scene_roles.garments(context.scene):
-            cls.poll_message_set("Tag a body and garments first")
-            return False
-        return True
+            return "Tag a body and garments first"
+        return None
 
 
 class DEFORMRT_OT_resolve_layers(BackgroundOperator, bpy.types.Operator):
@@ -27,11 +26,10 @@ class DEFORMRT_OT_resolve_layers(BackgroundOperator, bpy.types.Operator):
     cancelled_message = "Resolve cancelled: the garments are unchanged"
 
     @classmethod
-    def poll(cls, context):
+    def unavailable(cls, context):
         if context.scene is None or not scene_roles.garments(context.scene):
-            cls.poll_message_set("Tag a body and at least two garments first")
-            return False
-        return True
+            return "Tag a body and at least two garments first"
+        return None
 
     def prepare(self, context):
         return resolve_job.prepare_resolve(context.scene)
@@ -94,11 +92,10 @@ class DEFORMRT_OT_auto_segment(DeformRTOperator, bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     @classmethod
-    def poll(cls, context):
+    def unavailable(cls, context):
         if context.scene is None or not scene_roles.bodies(context.scene):
-            cls.poll_message_set("Tag a body first")
-            return False
-        return True
+            return "Tag a body first"
+        return None
 
     def execute(self, context):
         try:

@@ -19,12 +19,9 @@ class DEFORMRT_OT_tag_body(DeformRTOperator, bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     @classmethod
-    def poll(cls, context):
+    def unavailable(cls, context):
         obj = context.active_object
-        if obj is None or obj.type != "MESH":
-            cls.poll_message_set("Select a mesh object to use as the body")
-            return False
-        return True
+        return "Select a mesh object to use as the body" if obj is None or obj.type != "MESH" else None
 
     def execute(self, context):
         obj = context.active_object
@@ -46,11 +43,10 @@ class DEFORMRT_OT_tag_garments(DeformRTOperator, bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     @classmethod
-    def poll(cls, context):
+    def unavailable(cls, context):
         if not _selected_meshes(context):
-            cls.poll_message_set("Select one or more mesh objects")
-            return False
-        return True
+            return "Select one or more mesh objects"
+        return None
 
     def execute(self, context):
         new = [o for o in _selected_meshes(context) if o.deformrt.role != "GARMENT"]
@@ -75,12 +71,11 @@ class DEFORMRT_OT_tag_makehuman(DeformRTOperator, bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     @classmethod
-    def poll(cls, context):
+    def unavailable(cls, context):
         if context.scene is None or not any(scene_roles.mpfb_type(o) in scene_roles.BODY_TYPES
                                                  for o in context.scene.objects):
-            cls.poll_message_set("No MPFB2 (MakeHuman) character in the scene")
-            return False
-        return True
+            return "No MPFB2 (MakeHuman) character in the scene"
+        return None
 
     def execute(self, context):
         found = scene_roles.mpfb_character(context.scene, near=context.active_object)
@@ -113,11 +108,10 @@ class DEFORMRT_OT_clear_role(DeformRTOperator, bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     @classmethod
-    def poll(cls, context):
+    def unavailable(cls, context):
         if not any(scene_roles.is_tagged_mesh(o) for o in context.selected_objects):
-            cls.poll_message_set("No selected object is tagged as body or garment")
-            return False
-        return True
+            return "No selected object is tagged as body or garment"
+        return None
 
     def execute(self, context):
         cleared = [o for o in context.selected_objects if scene_roles.is_tagged_mesh(o)]
@@ -136,11 +130,10 @@ class DEFORMRT_OT_order_by_kind(DeformRTOperator, bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     @classmethod
-    def poll(cls, context):
+    def unavailable(cls, context):
         if context.scene is None or len(scene_roles.garments(context.scene)) < 2:
-            cls.poll_message_set("Tag at least two garments")
-            return False
-        return True
+            return "Tag at least two garments"
+        return None
 
     def execute(self, context):
         garments = scene_roles.garments(context.scene)
@@ -170,8 +163,8 @@ class DEFORMRT_OT_move_layer(DeformRTOperator, bpy.types.Operator):
         return obj if obj is not None and obj.type == "MESH" and obj.deformrt.role == "GARMENT" else None
 
     @classmethod
-    def poll(cls, context):
-        return context.scene is not None
+    def unavailable(cls, context):
+        return "No scene" if context.scene is None else None
 
     def execute(self, context):
         obj = self._target(context)
