@@ -7,6 +7,7 @@
 import argparse
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import bpy
@@ -48,12 +49,24 @@ ANIMATED = {"makehuman_animated"}
 SHEET_FRAMES = 5  # an animated scene's frames.png: this many frames, as fitted above, resolved below
 
 
+@dataclass
+class _DemoFigures:
+    """What the demo measured: the scene's objects as fitted and resolved, the operator's report,
+    and how long each step took (seconds)."""
+
+    scene: object
+    objs: list
+    arrays: list  # MeshArrays as fitted
+    report: object  # the Resolve Layers report
+    cross_before: np.ndarray  # crossing edges between each pair of layers
+    cross_after: np.ndarray
+    poke_before: float
+    poke_after: float
+    seconds: dict  # build, operator, render before, render after
+
+
 def _cmd_demo(args) -> int:
-    from ...core.layering import metrics
-    from ...sample_scenes import catalog, studio
-    from ..io import mesh_io
-    from ..layers import report as reports
-    from ..layers import scene_roles
+    from ...sample_scenes import catalog
 
     # each scene its own folder unless told: a second demo does not overwrite the first's
     out = Path(args.out or ("out/demo" if args.scene == "fig_4_12" else f"out/demo_{args.scene}")).resolve()
@@ -62,10 +75,32 @@ def _cmd_demo(args) -> int:
     progress(f"building the {args.scene} scene")
     t0 = time.perf_counter()
     catalog.SCENES[args.scene][0](args.seed)
-    build_s = time.perf_counter() - t0
+    figures = _resolve_and_render(args, out, progress, build_s=time.perf_counter() - t0)
+    lines = _metrics_lines(figures, args)
+    if args.scene in ANIMATED:
+        scene = figures.scene
+        progress(f"playing {scene.frame_end - scene.frame_start + 1} frames with Resolve on Frame Change and "
+                 "rendering frames.png")
+        lines += ["", *_frames_sheet(scene, figures.objs, out, args)]
+    table = "\n".join(lines)
+    (out / "metrics.md").write_text(table + "\n")
+    progress.done()
+    print(table)
+    print(f"\nwrote {out / 'before.png'}, {out / 'after.png'}, {out / 'metrics.md'} and {out / 'scene.blend'}")
+    return 0
+
+
+def _resolve_and_render(args, out, progress, build_s) -> _DemoFigures:
+    """Render the built scene, resolve it as an artist does (the operator), render it again, save
+    it, and measure crossings and poke-through before and after."""
+    from ...core.layering import metrics
+    from ...sample_scenes import studio
+    from ..io import mesh_io
+    from ..layers import report as reports
+    from ..layers import scene_roles
+
     scene = bpy.context.scene
-    body, garments = scene_roles.bodies(scene)[0], scene_roles.garments(scene)
-    objs = [body, *garments]
+    objs = [scene_roles.bodies(scene)[0], *scene_roles.garments(scene)]
 
     def evaluated_layers():
         depsgraph = bpy.context.evaluated_depsgraph_get()
@@ -73,40 +108,41 @@ def _cmd_demo(args) -> int:
         return arrays, [(a.vertices, a.triangles) for a in arrays]
 
     arrays, layers_before = evaluated_layers()
-    cross_before = metrics.layer_crossings(layers_before)
     size = (args.width, args.height)
     progress(f"rendering before.png ({args.width}x{args.height}, {args.samples} samples, denoised)")
-    render_before_s = studio.render_cycles(scene, out / "before.png", resolution=size, samples=args.samples,
-                                           denoise=True, quiet=True)
-
+    seconds = {"build_s": build_s}
+    seconds["render_before_s"] = studio.render_cycles(scene, out / "before.png", resolution=size,
+                                                      samples=args.samples, denoise=True, quiet=True)
     # what an artist or a pipeline runs: the operator, which leaves a DeformRT modifier on
     # each garment; the renders and metrics below read what Blender evaluates afterwards
     progress("resolving the layers (deformrt.resolve_layers)")
     t0 = time.perf_counter()
     if bpy.ops.deformrt.resolve_layers() != {"FINISHED"}:
         raise RuntimeError("deformrt.resolve_layers did not finish")
-    operator_s = time.perf_counter() - t0
-    report = reports.read(scene)
+    seconds["operator_s"] = time.perf_counter() - t0
     _, layers_after = evaluated_layers()
-    cross_after = metrics.layer_crossings(layers_after)
     progress("rendering after.png")
-    render_after_s = studio.render_cycles(scene, out / "after.png", resolution=size, samples=args.samples,
-                                          denoise=True, quiet=True)
+    seconds["render_after_s"] = studio.render_cycles(scene, out / "after.png", resolution=size,
+                                                     samples=args.samples, denoise=True, quiet=True)
     progress("measuring poke-through and saving scene.blend")
     # the resolved scene, to open in Blender: the result renders there with or without DeformRT
     bpy.ops.wm.save_as_mainfile(filepath=str(out / "scene.blend"), check_existing=False)
     cams = metrics.camera_ring(*metrics.layer_bounds(layers_before), views=8, resolution=96)
-    poke_before = metrics.poke_through(layers_before, cameras=cams)[0]
-    poke_after = metrics.poke_through(layers_after, cameras=cams)[0]
+    return _DemoFigures(scene, objs, arrays, reports.read(scene), metrics.layer_crossings(layers_before),
+                        metrics.layer_crossings(layers_after), metrics.poke_through(layers_before, cameras=cams)[0],
+                        metrics.poke_through(layers_after, cameras=cams)[0], seconds)
 
-    sec = report.seconds
+
+def _metrics_lines(f: _DemoFigures, args) -> list:
+    """metrics.md: poke-through and crossings before and after, per object, and where the time went."""
+    report, sec = f.report, f.report.seconds
     lines = [
-        f"# DeformRT demo: {scene.name}",
+        f"# DeformRT demo: {f.scene.name}",
         "",
-        f"**Poke-through: {100 * poke_before:.2f}% before, {100 * poke_after:.2f}% after** (of the garments' "
+        f"**Poke-through: {100 * f.poke_before:.2f}% before, {100 * f.poke_after:.2f}% after** (of the garments' "
         f"pixels over 8 views round the figure, those where a lower layer shows in front of a higher one). "
-        f"Crossing edges between the garments: {int(np.triu(cross_before).sum()):,} before, "
-        f"{int(np.triu(cross_after).sum()):,} after. Resolved in {sec['total_s']:.2f} s "
+        f"Crossing edges between the garments: {int(np.triu(f.cross_before).sum()):,} before, "
+        f"{int(np.triu(f.cross_after).sum()):,} after. Resolved in {sec['total_s']:.2f} s "
         f"(body parts from {report.parts}).",
         "",
         "Renders: before.png (as fitted one by one), after.png (resolved; the garments' meshes are unchanged, "
@@ -119,22 +155,22 @@ def _cmd_demo(args) -> int:
         "| faces hidden |",
         "|---|---|---|---:|---:|---:|---:|---:|---:|",
     ]
-    for i, (obj, arr) in enumerate(zip(objs, arrays, strict=True)):
+    for i, (obj, arr) in enumerate(zip(f.objs, f.arrays, strict=True)):
         move = 1000 * report.max_move[i - 1] if i else 0.0
         hidden = report.faces_hidden[i - 1] if i else 0
         lines.append(
             f"| {obj.name} | {obj.deformrt.role.lower()} | {obj.deformrt.layer} | {len(arr.vertices)} "
-            f"| {len(arr.triangles)} | {int(cross_before[i].sum())} | {int(cross_after[i].sum())} "
+            f"| {len(arr.triangles)} | {int(f.cross_before[i].sum())} | {int(f.cross_after[i].sum())} "
             f"| {move:.1f} | {hidden} |"
         )
-    st = report.stages_s
-    lines += [
+    st, took = report.stages_s, f.seconds
+    return lines + [
         "",
         "Where the time went:",
         "",
         "| step | seconds |",
         "|---|---:|",
-        f"| build the scene | {build_s:.3f} |",
+        f"| build the scene | {took['build_s']:.3f} |",
         f"| read the evaluated meshes | {sec['read_s']:.3f} |",
         f"| find each garment point's body point | {st['correspondence_s']:.3f} |",
         f"| tuck lower layers under hems | {st['boundary_pass_s']:.3f} |",
@@ -143,20 +179,10 @@ def _cmd_demo(args) -> int:
         f"| hide what still shows through | {st['hidden_faces_s']:.3f} |",
         f"| the resolve ({'Embree' if rays.HAVE_EMBREE else 'numpy'} rays) | {sec['resolve_s']:.3f} |",
         f"| write the results | {sec['write_s']:.3f} |",
-        f"| Resolve Layers end to end | {operator_s:.3f} |",
-        f"| Cycles render before, {args.width}x{args.height}, {args.samples} samples | {render_before_s:.2f} |",
-        f"| Cycles render after | {render_after_s:.2f} |",
+        f"| Resolve Layers end to end | {took['operator_s']:.3f} |",
+        f"| Cycles render before, {args.width}x{args.height}, {args.samples} samples | {took['render_before_s']:.2f} |",
+        f"| Cycles render after | {took['render_after_s']:.2f} |",
     ]
-    if args.scene in ANIMATED:
-        progress(f"playing {scene.frame_end - scene.frame_start + 1} frames with Resolve on Frame Change and "
-                 "rendering frames.png")
-        lines += ["", *_frames_sheet(scene, objs, out, args)]
-    table = "\n".join(lines)
-    (out / "metrics.md").write_text(table + "\n")
-    progress.done()
-    print(table)
-    print(f"\nwrote {out / 'before.png'}, {out / 'after.png'}, {out / 'metrics.md'} and {out / 'scene.blend'}")
-    return 0
 
 
 def _frames_sheet(scene, objs, out, args) -> list:
