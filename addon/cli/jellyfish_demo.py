@@ -9,6 +9,7 @@ write what was measured to metrics.md.
 
 import json
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import bpy
@@ -80,6 +81,21 @@ def _bell_volume(bell, n, tris):
     return bell3d.volume(_bell_points(bell, n), tris)
 
 
+@dataclass
+class _Swim:
+    """What the job found and made: the stroke searched (the operator's stored record), the default
+    and the optimized creature's first cycle, the bake's length, and seconds per step."""
+
+    config: object
+    before: object  # CycleResult of the default stroke
+    after: object  # CycleResult of the optimized one
+    creature: object
+    stroke: dict
+    every: int  # the travel sheet shows every this many cycles
+    last_frame: int
+    seconds: dict = field(default_factory=dict)
+
+
 def run(args) -> int:
     from ...sample_scenes import sea
 
@@ -96,31 +112,50 @@ def run(args) -> int:
     cam.location = (0.0, -4.6 * args.size, -0.3 * args.size)
     cam.rotation_euler = (np.radians(88.0), 0.0, 0.0)
     cam.data.lens = 50
+    swim = _search_and_bake(args, bell)
+    n = json.loads(bell[jellyfish.PROP_MODEL])["bell_vertices"]
+    volume_err = _volume_change(scene, bell, n, args.cycle_frames)
+    stroke_shots, travel_shots, rise = _render_sheets(args, out, scene, bell, anchor, swim, n)
+    table = "\n".join(_metrics_lines(args, swim, volume_err, stroke_shots, travel_shots, rise))
+    (out / "metrics.md").write_text(table + "\n")
+    scene.frame_set(1)
+    bpy.ops.wm.save_as_mainfile(filepath=str(out / "scene.blend"), check_existing=False)
+    print(table)
+    print(f"\nwrote {out / 'contact_sheet.png'}, {out / 'stroke_sheet.png'}, {out / 'metrics.md'} and "
+          f"{out / 'scene.blend'}")
+    return 0
 
+
+def _search_and_bake(args, bell) -> _Swim:
+    """The default stroke's first cycle, the operators' search for a better one and the bake of
+    it over as many cycles as the travel sheet shows."""
     config = default_config(particles=args.particles, weights=GOAL_WEIGHTS[args.goal.upper()])
+    seconds = {}
     t0 = time.perf_counter()
     before = simulate_cycle(default_creature(config), config)
-    default_s = time.perf_counter() - t0
+    seconds["default_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     done = bpy.ops.deformrt.optimize_jellyfish(method=args.method, particles=args.particles,
                                                population=args.population, generations=args.generations,
                                                seed=args.seed, goal=args.goal.upper())
     if done != {"FINISHED"}:
         raise RuntimeError("deformrt.optimize_jellyfish did not finish")
-    optimise_s = time.perf_counter() - t0
+    seconds["optimise_s"] = time.perf_counter() - t0
     stroke = json.loads(bell[jellyfish.PROP_STROKE])
     creature, _, _ = jellyfish.stroke_of(bell)
     after = simulate_cycle(creature, config)
-
     frames = args.cycle_frames
     every = 1 if after.path_m / config.bell.diameter > SWIFT else TRAVEL_EVERY
-    travel_cycles = every * TRAVEL_SHOTS
-    last_frame = travel_cycles * frames + 1
+    last_frame = every * TRAVEL_SHOTS * frames + 1
     t0 = time.perf_counter()
     if bpy.ops.deformrt.bake_jellyfish(frame_start=1, frame_end=last_frame, cycle_frames=frames) != {"FINISHED"}:
         raise RuntimeError("deformrt.bake_jellyfish did not finish")
-    bake_s = time.perf_counter() - t0
-    n = json.loads(bell[jellyfish.PROP_MODEL])["bell_vertices"]
+    seconds["bake_s"] = time.perf_counter() - t0
+    return _Swim(config, before, after, creature, stroke, every, last_frame, seconds)
+
+
+def _volume_change(scene, bell, n, frames) -> list:
+    """The bell's volume over the first baked cycle, as a share of its rest volume off."""
     tris = bell3d.triangles([tuple(p.vertices) for p in bell.data.polygons if max(p.vertices) < n])
     scene.frame_set(1)
     rest_volume = _bell_volume(bell, n, tris)
@@ -128,7 +163,13 @@ def run(args) -> int:
     for f in range(1, frames + 1):
         scene.frame_set(f)
         volume_err.append(abs(_bell_volume(bell, n, tris) / rest_volume - 1))
+    return volume_err
 
+
+def _render_sheets(args, out, scene, bell, anchor, swim, n):
+    """stroke_sheet.png (one cycle, the camera riding along) and contact_sheet.png (the travel,
+    a fixed camera); (the stroke's frames, the travel's frames, how far the top rose)."""
+    frames, cam = args.cycle_frames, scene.camera
     # one cycle in 8 pictures; the camera rides along so the bell stays in frame
     stroke_shots = [1 + round(k * frames / 8) for k in range(8)]
     z_cam = cam.location.z
@@ -136,13 +177,13 @@ def run(args) -> int:
     def ride_along():
         cam.location.z = z_cam + bell.matrix_world.translation.z - anchor.location.z
 
-    render_s = _render_sheet(scene, out, "stroke_sheet", stroke_shots, args.width, args.height, args.samples,
-                             ride_along)
+    swim.seconds["render_s"] = _render_sheet(scene, out, "stroke_sheet", stroke_shots, args.width, args.height,
+                                             args.samples, ride_along)
     # its travel: a fixed camera level with the bell's top (tentacles cut off), landscape, and
     # bars where the top began
     scene.frame_set(1)
     start = _bell_top(bell, n)
-    scene.frame_set(last_frame)
+    scene.frame_set(swim.last_frame)
     rise = _bell_top(bell, n)[2] - start[2]
     _markers(start, args.size)
     cam.data.lens = 50
@@ -150,10 +191,14 @@ def run(args) -> int:
     view = max(1.9 * args.size, (rise + 1.3 * args.size) * args.height / args.width)
     cam.location = (start[0], start[1] - view * cam.data.lens / 36.0, start[2] + 0.5 * rise)
     cam.rotation_euler = (np.radians(90.0), 0.0, 0.0)
-    travel_shots = [1 + every * k * frames for k in range(TRAVEL_SHOTS)]
-    render_s += _render_sheet(scene, out, "contact_sheet", travel_shots, args.height, args.width, args.samples)
-    rendered = 2 * len(travel_shots)
+    travel_shots = [1 + swim.every * k * frames for k in range(TRAVEL_SHOTS)]
+    swim.seconds["render_s"] += _render_sheet(scene, out, "contact_sheet", travel_shots, args.height, args.width,
+                                              args.samples)
+    return stroke_shots, travel_shots, rise
 
+
+def _metrics_lines(args, swim, volume_err, stroke_shots, travel_shots, rise) -> list:
+    config, stroke, sec, frames = swim.config, swim.stroke, swim.seconds, args.cycle_frames
     d = config.bell.diameter
     rows = [
         "# DeformRT jellyfish demo",
@@ -166,41 +211,36 @@ def run(args) -> int:
         "|---|---:|---:|---:|---:|---:|",
     ]
     scales = reference_scales(config)
-    for name, c, cr in (("default stroke (Aurelia-like)", before, default_creature(config)),
-                        ("optimized", after, creature)):
+    for name, c, cr in (("default stroke (Aurelia-like)", swim.before, default_creature(config)),
+                        ("optimized", swim.after, swim.creature)):
         score = fitness(c.path_m, c.bending_energy, c.energy_loss, config, scales)
         rows.append(f"| {name} | {score:+.3f} | {c.path_m / d:.4f} "
                     f"| {c.bending_energy:.3g} | {c.energy_loss:.3g} | {cr.contraction:.2f} |")
-    rows += [
+    rendered = 2 * len(travel_shots)
+    return rows + [
         "",
         "| step | seconds |",
         "|---|---:|",
-        f"| one cycle of the default stroke | {default_s:.2f} |",
-        f"| deformrt.optimize_jellyfish | {optimise_s:.2f} |",
-        f"| deformrt.bake_jellyfish ({last_frame} frames) | {bake_s:.2f} |",
-        f"| Cycles, {rendered} frames {args.width}x{args.height} at {args.samples} spp, denoised | {render_s:.1f} |",
+        f"| one cycle of the default stroke | {sec['default_s']:.2f} |",
+        f"| deformrt.optimize_jellyfish | {sec['optimise_s']:.2f} |",
+        f"| deformrt.bake_jellyfish ({swim.last_frame} frames) | {sec['bake_s']:.2f} |",
+        f"| Cycles, {rendered} frames {args.width}x{args.height} at {args.samples} spp, denoised | "
+        f"{sec['render_s']:.1f} |",
         "",
         f"Bell volume over the baked cycle: largest change {100 * max(volume_err):.3f}% of rest.",
         "",
         "contact_sheet.png: the bell's travel, the start of cycles "
-        f"{', '.join(str(1 + every * k) for k in range(TRAVEL_SHOTS))} (frames "
+        f"{', '.join(str(1 + swim.every * k) for k in range(TRAVEL_SHOTS))} (frames "
         f"{', '.join(map(str, travel_shots))}), left to right, top to bottom; the orange bars mark where its top "
-        f"began. It rises {rise * 1000:.0f} mm ({rise / args.size:.3f} bell diameters) in {travel_cycles} cycles "
-        f"(the stroke simulated {jellyfish.BAKE_CYCLES} cycles in a row, the last repeating after).",
+        f"began. It rises {rise * 1000:.0f} mm ({rise / args.size:.3f} bell diameters) in "
+        f"{swim.every * TRAVEL_SHOTS} cycles (the stroke simulated {jellyfish.BAKE_CYCLES} cycles in a row, the last "
+        "repeating after).",
         "",
         f"stroke_sheet.png: frames {', '.join(map(str, stroke_shots))} of the first {frames}-frame cycle, the camera "
         "riding along (contraction, then relaxation).",
         "",
         "scene.blend: the sea scene with the baked jellyfish, to open in Blender (it plays without DeformRT).",
     ]
-    table = "\n".join(rows)
-    (out / "metrics.md").write_text(table + "\n")
-    scene.frame_set(1)
-    bpy.ops.wm.save_as_mainfile(filepath=str(out / "scene.blend"), check_existing=False)
-    print(table)
-    print(f"\nwrote {out / 'contact_sheet.png'}, {out / 'stroke_sheet.png'}, {out / 'metrics.md'} and "
-          f"{out / 'scene.blend'}")
-    return 0
 
 
 def add_parser(sub):
