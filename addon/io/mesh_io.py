@@ -5,6 +5,8 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
+from ...core.geometry.vectors import inverse3
+
 
 @dataclass
 class MeshArrays:
@@ -115,7 +117,7 @@ def _plain_smooth(mesh) -> bool:
 def world_normals(normals, matrix_world):
     """(n, 3) object-space normals turned into world space (the inverse transpose of the matrix,
     so a non-uniform scale keeps them normal to the surface), made unit."""
-    n = normals @ np.linalg.inv(np.asarray(matrix_world, float)[:3, :3])
+    n = normals @ inverse3(np.asarray(matrix_world, float)[:3, :3])
     length = np.linalg.norm(n, axis=1, keepdims=True)
     return np.divide(n, length, out=np.zeros_like(n), where=length > 0)
 

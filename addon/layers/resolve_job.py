@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import trimesh
 
-from ...core.geometry.vectors import cross, norms, rows, size_of
+from ...core.geometry.vectors import cross, inverse3, norms, rows, size_of
 from ...core.layering.covered_skin import covered_faces
 from ...core.layering.resolve import resolve_layers
 from ...core.layering.segmentation import get_scheme
@@ -182,7 +182,7 @@ def _faces_inward(a, normals) -> bool:
 def _local(a):
     """MeshArrays' world vertices back in their object's space."""
     m = a.matrix_world
-    return (a.vertices - m[:3, 3]) @ np.linalg.inv(m[:3, :3]).T
+    return (a.vertices - m[:3, 3]) @ inverse3(m[:3, :3]).T
 
 
 def finish_resolve(scene, job: ResolveJob, output: ResolveOutput) -> ResolveSummary:
@@ -194,7 +194,7 @@ def finish_resolve(scene, job: ResolveJob, output: ResolveOutput) -> ResolveSumm
     faces_hidden = []
     for obj, a, moved, removed, made_for in zip(job.garments, job.arrays[1:], result.moved, result.removed_faces,
                                                 job.made_for, strict=True):
-        to_local = np.linalg.inv(a.matrix_world[:3, :3])
+        to_local = inverse3(a.matrix_world[:3, :3])
         hidden = np.zeros(a.n_polygons, dtype=bool)
         hidden[a.triangle_polygon[removed]] = True
         faces_hidden.append(int(hidden.sum()))

@@ -6,6 +6,7 @@ import numpy as np
 
 from ...core.geometry.cache import Cache
 from ...core.geometry.keys import digest
+from ...core.geometry.vectors import inverse3
 from ...core.layering.probes import body_probes
 from ...core.render.layered_trace import LayeredScene
 from ...core.render.mesh_cleaning import finite_part
@@ -99,7 +100,7 @@ def scene_arrays(depsgraph, layered=True):
         layers.append(None if role == "NONE" else (0 if role == "BODY" else obj.deformrt.layer))
         n = mesh_io.read_point_vectors(obj, GLOBAL_NORMAL_ATTRIBUTE, depsgraph) if layered and role != "NONE" else None
         # stored in object space; normals turn with the inverse transpose
-        normals.append(None if n is None or len(n) != len(a.vertices) else n @ np.linalg.inv(a.matrix_world[:3, :3]))
+        normals.append(None if n is None or len(n) != len(a.vertices) else n @ inverse3(a.matrix_world[:3, :3]))
         materials.append(mats)
         slots.append(a.triangle_material if len(mats) > 1 else None)
         uvs.append(a.triangle_uv)

@@ -24,6 +24,17 @@ def unit(v: np.ndarray) -> np.ndarray:
     return np.divide(v, length, out=np.zeros_like(v, dtype=float), where=length > 0)
 
 
+def inverse3(m) -> np.ndarray:
+    """The inverse of a 3x3 matrix by its cofactors: numpy's LAPACK inverse wakes the BLAS
+    threads for nine numbers (about 2 ms a call inside Blender next to Embree's threads)."""
+    m = np.asarray(m, dtype=np.float64)
+    columns = np.cross(m[[1, 2, 0]], m[[2, 0, 1]])  # b x c, c x a, a x b of the rows a, b, c
+    det = float(m[0] @ columns[0])
+    if det == 0.0 or not np.isfinite(det):
+        raise np.linalg.LinAlgError("Singular matrix")
+    return columns.T / det
+
+
 def cross(a: np.ndarray, b: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     """Row-wise cross products of two (n, 3) arrays (into ``out`` if given): np.cross's numbers,
     column by column, several times faster on (n, 3) rows."""

@@ -11,6 +11,7 @@ from scipy.spatial import cKDTree
 from ..geometry.cache import Cache, nbytes
 from ..geometry.keys import digest
 from ..geometry.normals import vertex_normals
+from ..geometry.parallel import tree_workers
 from ..geometry.topology import topology_of, vertex_adjacency
 from ..geometry.vectors import box, norms, rows
 from ..rays.scene import RayScene
@@ -258,7 +259,7 @@ def junction_vertices(vertices, faces, segment):
                 inside &= (vertices[mine, k] >= lo[k] - bound) & (vertices[mine, k] <= hi[k] + bound)
             mine = mine[inside]
             if len(mine):
-                d, j = tree.query(rows(vertices, mine), distance_upper_bound=bound, workers=-1)
+                d, j = tree.query(rows(vertices, mine), distance_upper_bound=bound, workers=tree_workers(len(mine)))
                 better = d < best_d[mine]
                 best_d[mine[better]], best_j[mine[better]] = d[better], theirs[j[better]]
     row = np.flatnonzero(np.isfinite(best_d))

@@ -18,7 +18,7 @@ except ImportError:  # pragma: no cover - the candidate search below stands in, 
     _fcpw = None
 
 from ..geometry.normals import vertex_normals
-from ..geometry.parallel import map_chunks
+from ..geometry.parallel import map_chunks, tree_workers
 from ..geometry.topology import used_vertices
 from ..geometry.vectors import box, cross, norms, rows, unit
 from ..rays.scene import RayScene
@@ -257,7 +257,7 @@ def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
         map_chunks(solve, n, chunk, block=_SEARCH_BLOCK)
         return BodyCorrespondence(picks, best_w, best_d)
     if near is None:
-        _, near = search.tree.query(points, k=min(k, search.tree.n), workers=-1)
+        _, near = search.tree.query(points, k=min(k, search.tree.n), workers=tree_workers(len(points)))
     near = np.asarray(near).reshape(n, -1)
     points32 = (points - search.centre).astype(np.float32)
 

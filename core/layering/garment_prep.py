@@ -12,6 +12,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..geometry.keys import digest
+from ..geometry.parallel import tree_workers
 from ..geometry.topology import faces_key, topology_of
 from ..geometry.vectors import box, norms, rows
 from .body_facts import frozen
@@ -313,8 +314,8 @@ def _apart_before_search(garr, traced, body, reach, searchable):
     # a garment whose own box meets another's is near it whatever its normals (the common case)
     if len(ids) < 2 or not ask or all(near_another([box(garr[i][0]) for i in ids], 0.0)):
         return {}
-    dist, near = body.search.tree.query(np.vstack([garr[i][0] for i in ask]), k=min(2, body.search.tree.n),
-                                        workers=-1)
+    asked = np.vstack([garr[i][0] for i in ask])
+    dist, near = body.search.tree.query(asked, k=min(2, body.search.tree.n), workers=tree_workers(len(asked)))
     dist, near = np.reshape(dist, (len(near), -1)), np.reshape(near, (len(near), -1))
     start = np.cumsum([0] + [len(garr[i][0]) for i in ask])
     rows = {i: slice(a, b) for i, a, b in zip(ask, start[:-1], start[1:], strict=True)}
@@ -381,7 +382,7 @@ def border_segment(points, distance, primary, junctions, margin, lower=None):
             mine, reach = mine[ask], reach[ask]
             if not len(mine):
                 continue
-        d, j = cKDTree(pos[at]).query(points[mine], distance_upper_bound=bound, workers=-1)
+        d, j = cKDTree(pos[at]).query(points[mine], distance_upper_bound=bound, workers=tree_workers(len(mine)))
         ok = d <= reach
         out[mine[ok]] = other[at][j[ok]]
     return out

@@ -10,6 +10,7 @@ import numpy as np
 from scipy import sparse
 from scipy.spatial import cKDTree
 
+from ..geometry.parallel import tree_workers
 from ..geometry.vectors import norms
 
 
@@ -27,7 +28,7 @@ def largest_gaussian(points: np.ndarray, centres: np.ndarray, amplitude: np.ndar
     # and a point it leaves without any has no bump within reach
     bound = np.nextafter(np.sqrt(reach * reach + lift.max() ** 2), np.inf)
     _, best = cKDTree(np.column_stack([h, lift])).query(np.column_stack([points, np.zeros(len(points))]),
-                                                          distance_upper_bound=bound, workers=-1)
+                                                          distance_upper_bound=bound, workers=tree_workers(len(points)))
     found = best < len(h)
     gap = np.full(len(points), np.inf)
     gap[found] = norms(points[found] - h[best[found]])
