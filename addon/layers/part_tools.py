@@ -4,7 +4,6 @@ a vector attribute (and a colour to look at them), and taking those away again."
 
 import bpy
 import numpy as np
-import trimesh
 
 from ...core.layering.resolve import resolve_layers
 from ...core.layering.segmentation import get_scheme
@@ -15,6 +14,7 @@ from .scene_read import (
     GLOBAL_NORMAL_COLOR,
     PART_GROUP_PREFIX,
     LayeringInputError,
+    as_trimesh,
     body_parts,
     fitted_cages,
     layered_objects,
@@ -23,13 +23,9 @@ from .scene_read import (
 )
 
 
-def _trimesh(a):
-    return trimesh.Trimesh(a.vertices, a.triangles, process=False, validate=False)
-
-
 def found_without_moves(arrays, **params):
     """resolve_layers with every moving stage off: segments, skirts and global normals."""
-    return resolve_layers(_trimesh(arrays[0]), [_trimesh(a) for a in arrays[1:]], boundary_pass=False,
+    return resolve_layers(as_trimesh(arrays[0]), [as_trimesh(a) for a in arrays[1:]], boundary_pass=False,
                           push_behind=False, remove_hidden=False, **params)
 
 

@@ -7,7 +7,6 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-import trimesh
 
 from ...core.geometry.vectors import cross, inverse3, norms, rows, size_of
 from ...core.layering.covered_skin import covered_faces
@@ -16,7 +15,7 @@ from ...core.layering.segmentation import get_scheme
 from ..io import scene_units
 from . import frame_memory, result_stack, results, staleness
 from .report import LayersReport
-from .scene_read import LayeringInputError, probe_distances, read_scene
+from .scene_read import LayeringInputError, as_trimesh, probe_distances, read_scene
 
 
 @dataclass
@@ -142,14 +141,10 @@ def prepare_resolve(scene, playing=False) -> ResolveJob:
                       read_s=time.perf_counter() - t0, t0=t0)
 
 
-def _trimesh(a):
-    return trimesh.Trimesh(a.vertices, a.triangles, process=False, validate=False)
-
-
 def compute_resolve(job: ResolveJob) -> ResolveOutput:
     """Everything the resolve computes: no bpy, safe to run on a worker thread."""
     t0 = time.perf_counter()
-    result = resolve_layers(_trimesh(job.arrays[0]), [_trimesh(a) for a in job.arrays[1:]], **job.params)
+    result = resolve_layers(as_trimesh(job.arrays[0]), [as_trimesh(a) for a in job.arrays[1:]], **job.params)
     skin = _covered_skin(job.arrays[0], result) if job.hide_skin else None
     inward = [g.name for g, a, n in zip(job.garments, job.arrays[1:], result.found()[0], strict=True)
               if n is not None and _faces_inward(a, n)]

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import bpy
 import numpy as np
+import trimesh
 
 from ...core.geometry.vectors import inverse3
 from ...core.layering.segmentation import get_scheme, part_of_group, segments_from_groups
@@ -122,6 +123,11 @@ def fitted_cages(garments):
     vertices a result is made for, the same in the viewport and the render."""
     with results_bypassed(garments), result_stack.cages_shown(garments):
         yield
+
+
+def as_trimesh(a):
+    """MeshArrays as the trimesh core's resolve takes (no processing: the indices stay ours)."""
+    return trimesh.Trimesh(a.vertices, a.triangles, process=False, validate=False)
 
 
 def read_meshes(objs, depsgraph):

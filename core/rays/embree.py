@@ -8,6 +8,7 @@ import numpy as np
 
 from ..geometry.parallel import map_chunks
 from ..geometry.vectors import rows
+from . import embree_direct
 
 try:
     from embreex import rtcore as _rtc
@@ -69,8 +70,6 @@ class EmbreeEngine:
     name = "embree"
 
     def __init__(self, vertices, faces, center):
-        from . import embree_direct
-
         self.center = center
         self.scene = new_scene()
         self.mesh = None
@@ -89,13 +88,9 @@ class EmbreeEngine:
         self.mesh.move(centred_vertices)
 
     def group(self, start, stop, geom_id):
-        from . import embree_direct
-
         return embree_direct.Group(self.mesh, start, stop, geom_id=geom_id)
 
     def instance_handles(self) -> list:
-        from . import embree_direct
-
         return [embree_direct.handle_of(self.scene)]
 
     def commit(self) -> None:
@@ -138,8 +133,6 @@ class EmbreeInstances(EmbreeEngine):
     """A part of a RayScene: one Embree scene instancing the whole's ranges (``groups``)."""
 
     def __init__(self, groups, center):
-        from . import embree_direct
-
         self.center, self.groups, self.mesh = center, groups, None
         self.scene = new_scene()
         embree_direct.instance(self.scene, [g.handle for g in groups])
