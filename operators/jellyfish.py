@@ -3,6 +3,7 @@
 import bpy
 
 from ..addon.jellyfish import animal as jellyfish
+from ..core.jellyfish.keyframes import FrameRange
 from ..core.jellyfish.stroke_search import GOAL_WEIGHTS, optimize
 from ..core.jellyfish.swimming import default_config
 from ..core.jellyfish.waters import WATERS as WATER_KINDS
@@ -137,8 +138,8 @@ class DEFORMRT_OT_bake_jellyfish(_NeedsJellyfish, DeformRTOperator, bpy.types.Op
     def execute(self, context):
         bell = jellyfish.jellyfish_of(context.active_object)
         try:
-            message = jellyfish.bake(context.scene, bell, self.frame_start, self.frame_end, self.cycle_frames,
-                                     self.wobble, self.seed, self.water)
+            frames = FrameRange(self.frame_start, self.frame_end, self.cycle_frames)
+            message = jellyfish.bake(context.scene, bell, frames, self.wobble, self.seed, self.water)
         except (ValueError, RuntimeError) as exc:
             return self.fail(exc)
         self.report({"INFO"}, message)

@@ -17,7 +17,7 @@ import numpy as np
 
 from ...core.jellyfish import bell3d
 from ...core.jellyfish.bell import BellShape, Creature
-from ...core.jellyfish.keyframes import swim_frames
+from ...core.jellyfish.keyframes import BellPose, FrameRange, swim_frames
 from ...core.jellyfish.swimming import default_config, default_creature, one_cycle, simulate_cycles
 from ...core.jellyfish.tentacle_drift import water_drift
 from ..io import blender_versions
@@ -247,13 +247,12 @@ def _water_keys(obj, drift, scale):
     return peaks
 
 
-def bake(scene, bell, frame_start, frame_end, cycle_frames, wobble=0.03, seed=0, water=1.0):
-    """Keys and keyframes for the stored stroke from frame_start to frame_end, one cycle
-    every ``cycle_frames`` frames; ``water`` scales the tentacles' drift with the water (1 is
-    as simulated). Returns a summary line."""
-    if frame_end < frame_start:
-        raise ValueError(f"the frame range is empty ({frame_start}-{frame_end})")
-    if cycle_frames < 2:
+def bake(scene, bell, frames: FrameRange, wobble=0.03, seed=0, water=1.0):
+    """Keys and keyframes for the stored stroke over ``frames``; ``water`` scales the tentacles'
+    drift with the water (1 is as simulated). Returns a summary line."""
+    if frames.end < frames.start:
+        raise ValueError(f"the frame range is empty ({frames.start}-{frames.end})")
+    if frames.cycle_frames < 2:
         raise ValueError("a cycle needs at least 2 frames")
     if not (np.isfinite(water) and water >= 0):
         raise ValueError(f"the water drift scale must be >= 0, got {water}")
@@ -262,19 +261,40 @@ def bake(scene, bell, frame_start, frame_end, cycle_frames, wobble=0.03, seed=0,
     creature, config, optimised = stroke_of(bell)
     # the stored stroke is replayed (deterministic) cycle after cycle from rest, as many as the frames
     # hold (up to BAKE_CYCLES; the last repeats after), and the water of its last cycle moves the tentacles
-    count = int(min(BAKE_CYCLES, max(1, np.ceil((frame_end - frame_start + 1) / cycle_frames))))
+    count = int(min(BAKE_CYCLES, max(1, np.ceil((frames.end - frames.start + 1) / frames.cycle_frames))))
     cycle = simulate_cycles(creature, config, count, sample_fields=True)
     if not np.isfinite(cycle.fitness):
         raise ValueError(f"the stored stroke cannot swim: {cycle.reason}")
     water_cycle = one_cycle(cycle, count - 1)
-    shape = config.bell
     box_half = 0.5 * config.box
-    field = bell3d.StrokeField(shape, creature, box_half)
+    field = bell3d.StrokeField(config.bell, creature, box_half)
     rng = np.random.default_rng(seed)
-    jitter = wobble * 0.5 * shape.diameter * rng.standard_normal((field.control_count, 3))
-    wobble_field = bell3d.StrokeField(shape, Creature(creature.controls, creature.controls, 0.5), box_half,
+    jitter = wobble * 0.5 * config.bell.diameter * rng.standard_normal((field.control_count, 3))
+    wobble_field = bell3d.StrokeField(config.bell, Creature(creature.controls, creature.controls, 0.5), box_half,
                                       jitter=jitter)
     clear_bake(bell)
+    pose = _bell_keys(bell, (field, wobble_field), config.bell, scale, n_bell)
+    drifts = {}
+    parts = [c for c in bell.children if c.type == "CURVE"]
+    for child in parts:
+        p = _points(child) / scale
+        _set_key(child, KEYS[0], (p + field(p)) * scale)
+        _set_key(child, KEYS[1], (p + wobble_field(p)) * scale)
+        if water > 0 and (p[:, 2] < 0).any():  # tentacles hang below the margin, veins do not
+            drift = water_drift(water_cycle, config, np.column_stack([np.hypot(p[:, 0], p[:, 1]), p[:, 2]]))
+            drifts[child.name] = (drift, _water_keys(child, drift, scale))
+    _keyframe(bell, parts, drifts, swim_frames(cycle, creature, frames, pose, seed), water, scale)
+    scene.frame_set(scene.frame_current)
+    source = "the optimized stroke" if optimised else "the default stroke (nothing optimized yet)"
+    per_cycle = cycle.path_per_cycle_m / config.bell.diameter
+    later = f", {per_cycle[-1]:.3f} in cycle {count} and each after" if count > 1 else ""
+    return (f"Baked {frames.end - frames.start + 1} frames of {source}: {per_cycle[0]:.3f} bell diameters in the "
+            f"first {frames.cycle_frames}-frame cycle{later}")
+
+
+def _bell_keys(bell, fields, shape, scale, n_bell) -> BellPose:
+    """The bell's contracted, wobbled and thickened keys; returns its pose for the keyframes."""
+    field, wobble_field = fields
     rest = _points(bell) / scale
     bell_faces = bell3d.triangles([tuple(p.vertices) for p in bell.data.polygons if max(p.vertices) < n_bell])
     normals = np.zeros_like(rest)
@@ -284,20 +304,14 @@ def bake(scene, bell, frame_start, frame_end, cycle_frames, wobble=0.03, seed=0,
     _set_key(bell, KEYS[0], (rest + moved) * scale)
     _set_key(bell, KEYS[1], (rest + wob) * scale)
     _set_key(bell, KEYS[2], (rest + thickness * normals) * scale)
-    parts, drifts = [], {}
-    for child in bell.children:
-        if child.type != "CURVE":
-            continue
-        p = _points(child) / scale
-        _set_key(child, KEYS[0], (p + field(p)) * scale)
-        _set_key(child, KEYS[1], (p + wobble_field(p)) * scale)
-        if water > 0 and (p[:, 2] < 0).any():  # tentacles hang below the margin, veins do not
-            drift = water_drift(water_cycle, config, np.column_stack([np.hypot(p[:, 0], p[:, 1]), p[:, 2]]))
-            drifts[child.name] = (drift, _water_keys(child, drift, scale))
-        parts.append(child)
+    return BellPose(rest[:n_bell], moved[:n_bell], wob[:n_bell], bell_faces, normals[:n_bell], thickness)
+
+
+def _keyframe(bell, parts, drifts, swim, water, scale) -> None:
+    """Key values and the bell's rise at every frame of ``swim``; each part's water keys from its
+    drift (``drifts``: name -> (drift, peaks))."""
     z0 = bell.location.z
-    for f in swim_frames(cycle, creature, frame_start, frame_end, cycle_frames, seed, rest[:n_bell], moved[:n_bell],
-                         wob[:n_bell], bell_faces, normals[:n_bell], thickness):
+    for f in swim:
         for obj, values in ((bell, {KEYS[0]: f.contraction, KEYS[1]: f.wobble, KEYS[2]: f.volume}),
                             *((c, {KEYS[0]: f.contraction, KEYS[1]: f.wobble}) for c in parts)):
             if obj.name in drifts:
@@ -311,9 +325,3 @@ def bake(scene, bell, frame_start, frame_end, cycle_frames, wobble=0.03, seed=0,
         bell.location.z = z0 + f.rise_m * scale
         bell.keyframe_insert("location", index=2, frame=f.frame)
     bell.location.z = z0
-    scene.frame_set(scene.frame_current)
-    source = "the optimized stroke" if optimised else "the default stroke (nothing optimized yet)"
-    per_cycle = cycle.path_per_cycle_m / shape.diameter
-    later = f", {per_cycle[-1]:.3f} in cycle {count} and each after" if count > 1 else ""
-    return (f"Baked {frame_end - frame_start + 1} frames of {source}: {per_cycle[0]:.3f} bell diameters in the first "
-            f"{cycle_frames}-frame cycle{later}")

@@ -47,85 +47,106 @@ def _build(group):
     group.interface.new_socket(name="Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
     group.interface.new_socket(name=DATA_SOCKET, in_out="INPUT", socket_type="NodeSocketObject")
     group.interface.new_socket(name="Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-    nodes, links = group.nodes, group.links
-    inputs, output = nodes.new("NodeGroupInput"), nodes.new("NodeGroupOutput")
-    info = nodes.new("GeometryNodeObjectInfo")
-    info.transform_space = "ORIGINAL"
-    links.new(inputs.outputs[DATA_SOCKET], info.inputs["Object"])
-    index = nodes.new("GeometryNodeInputIndex")
+    g = _Graph(group)
+    move = g.new("GeometryNodeSetPosition")
+    g.link(g.inputs.outputs["Geometry"], move.inputs["Geometry"])
+    g.link(g.sampled(OFFSET_ATTRIBUTE, "FLOAT_VECTOR"), move.inputs["Offset"])
+    drop = g.new("GeometryNodeDeleteGeometry")
+    drop.domain = "FACE"
+    g.link(move.outputs["Geometry"], drop.inputs["Geometry"])
+    g.link(g.sampled(HIDDEN_ATTRIBUTE, "BOOLEAN"), drop.inputs["Selection"])
+    elsewhere = g.logic("OR", _other_mesh(g), _moved_off_cage(g))
+    switch = g.new("GeometryNodeSwitch")
+    switch.input_type = "GEOMETRY"
+    g.link(g.logic("OR", g.sampled(BYPASS_ATTRIBUTE, "BOOLEAN", per_point=False), elsewhere), switch.inputs["Switch"])
+    g.link(drop.outputs["Geometry"], switch.inputs["False"])
+    g.link(g.inputs.outputs["Geometry"], switch.inputs["True"])
+    fits = g.new("FunctionNodeBooleanMath")
+    fits.operation = "NOT"
+    g.link(elsewhere, fits.inputs[0])
+    store = g.new("GeometryNodeStoreNamedAttribute")
+    store.data_type, store.domain = "BOOLEAN", "POINT"
+    store.inputs["Name"].default_value = FITS_ATTRIBUTE
+    g.link(switch.outputs["Output"], store.inputs["Geometry"])
+    g.link(fits.outputs[0], store.inputs["Value"])
+    g.link(store.outputs["Geometry"], g.output.inputs["Geometry"])
+    for i, node in enumerate((g.inputs, g.info, g.index, move, drop, switch, store, g.output)):
+        node.location = (220 * i, 0)
+    group["deformrt_version"] = GROUP_VERSION
 
-    def sampled(attribute, data_type, per_point=True):
-        named = nodes.new("GeometryNodeInputNamedAttribute")
+
+class _Graph:
+    """The group's nodes being built: its input and output, the data object's geometry, and the
+    two node patterns every test of the result uses."""
+
+    def __init__(self, group):
+        self.nodes, self.links = group.nodes, group.links
+        self.inputs, self.output = self.new("NodeGroupInput"), self.new("NodeGroupOutput")
+        self.info = self.new("GeometryNodeObjectInfo")
+        self.info.transform_space = "ORIGINAL"
+        self.link(self.inputs.outputs[DATA_SOCKET], self.info.inputs["Object"])
+        self.index = self.new("GeometryNodeInputIndex")
+
+    def new(self, kind):
+        return self.nodes.new(kind)
+
+    def link(self, a, b):
+        self.links.new(a, b)
+
+    def sampled(self, attribute, data_type, per_point=True):
+        """The data object's attribute at each point (else point 0's: one value, as a switch
+        between geometries needs)."""
+        named = self.new("GeometryNodeInputNamedAttribute")
         named.data_type = data_type
         named.inputs["Name"].default_value = attribute
-        sample = nodes.new("GeometryNodeSampleIndex")
+        sample = self.new("GeometryNodeSampleIndex")
         sample.data_type, sample.domain = data_type, "POINT"
-        links.new(info.outputs["Geometry"], sample.inputs["Geometry"])
-        links.new(named.outputs["Attribute"], sample.inputs["Value"])
+        self.link(self.info.outputs["Geometry"], sample.inputs["Geometry"])
+        self.link(named.outputs["Attribute"], sample.inputs["Value"])
         if per_point:
-            links.new(index.outputs["Index"], sample.inputs["Index"])
-        return sample.outputs["Value"]  # else point 0's: one value, as a switch between geometries needs
+            self.link(self.index.outputs["Index"], sample.inputs["Index"])
+        return sample.outputs["Value"]
 
-    move = nodes.new("GeometryNodeSetPosition")
-    links.new(inputs.outputs["Geometry"], move.inputs["Geometry"])
-    links.new(sampled(OFFSET_ATTRIBUTE, "FLOAT_VECTOR"), move.inputs["Offset"])
-    drop = nodes.new("GeometryNodeDeleteGeometry")
-    drop.domain = "FACE"
-    links.new(move.outputs["Geometry"], drop.inputs["Geometry"])
-    links.new(sampled(HIDDEN_ATTRIBUTE, "BOOLEAN"), drop.inputs["Selection"])
-    size = nodes.new("GeometryNodeAttributeDomainSize")
-    size.component = "MESH"
-    links.new(inputs.outputs["Geometry"], size.inputs["Geometry"])
-
-    def logic(operation, a, b):
-        node = nodes.new("FunctionNodeBooleanMath")
+    def logic(self, operation, a, b):
+        node = self.new("FunctionNodeBooleanMath")
         node.operation = operation
-        links.new(a, node.inputs[0])
-        links.new(b, node.inputs[1])
+        self.link(a, node.inputs[0])
+        self.link(b, node.inputs[1])
         return node.outputs[0]
 
+
+def _other_mesh(g):
+    """Whether the mesh has other point or face counts than the one resolved (when known)."""
+    size = g.new("GeometryNodeAttributeDomainSize")
+    size.component = "MESH"
+    g.link(g.inputs.outputs["Geometry"], size.inputs["Geometry"])
     differ = []
     for count, attribute in (("Point Count", POINT_COUNT_ATTRIBUTE), ("Face Count", FACE_COUNT_ATTRIBUTE)):
-        compare = nodes.new("FunctionNodeCompare")
+        compare = g.new("FunctionNodeCompare")
         compare.data_type, compare.operation = "INT", "NOT_EQUAL"
         # the integer pair: its own sockets up to 4.5 (A_INT, B_INT), typed A and B from 5.0
         a, b = [s for s in compare.inputs if s.enabled][:2]
-        links.new(size.outputs[count], a)
-        links.new(sampled(attribute, "INT", per_point=False), b)
+        g.link(size.outputs[count], a)
+        g.link(g.sampled(attribute, "INT", per_point=False), b)
         differ.append(compare.outputs[0])
-    other_mesh = logic("AND", sampled(COUNTS_KNOWN_ATTRIBUTE, "BOOLEAN", per_point=False), logic("OR", *differ))
-    # the vertices' farthest distance from where they were resolved
-    apart = nodes.new("ShaderNodeVectorMath")
+    return g.logic("AND", g.sampled(COUNTS_KNOWN_ATTRIBUTE, "BOOLEAN", per_point=False), g.logic("OR", *differ))
+
+
+def _moved_off_cage(g):
+    """Whether any vertex is farther than the tolerance from where it was resolved (when known)."""
+    apart = g.new("ShaderNodeVectorMath")
     apart.operation = "DISTANCE"
-    links.new(nodes.new("GeometryNodeInputPosition").outputs["Position"], apart.inputs[0])
-    links.new(sampled(CAGE_ATTRIBUTE, "FLOAT_VECTOR"), apart.inputs[1])
-    farthest = nodes.new("GeometryNodeAttributeStatistic")
+    g.link(g.new("GeometryNodeInputPosition").outputs["Position"], apart.inputs[0])
+    g.link(g.sampled(CAGE_ATTRIBUTE, "FLOAT_VECTOR"), apart.inputs[1])
+    farthest = g.new("GeometryNodeAttributeStatistic")
     farthest.data_type, farthest.domain = "FLOAT", "POINT"
-    links.new(inputs.outputs["Geometry"], farthest.inputs["Geometry"])
-    links.new(apart.outputs["Value"], farthest.inputs["Attribute"])
-    beyond = nodes.new("FunctionNodeCompare")
+    g.link(g.inputs.outputs["Geometry"], farthest.inputs["Geometry"])
+    g.link(apart.outputs["Value"], farthest.inputs["Attribute"])
+    beyond = g.new("FunctionNodeCompare")
     beyond.data_type, beyond.operation = "FLOAT", "GREATER_THAN"
-    links.new(farthest.outputs["Max"], beyond.inputs["A"])
-    links.new(sampled(CAGE_TOLERANCE_ATTRIBUTE, "FLOAT", per_point=False), beyond.inputs["B"])
-    moved = logic("AND", sampled(CAGE_KNOWN_ATTRIBUTE, "BOOLEAN", per_point=False), beyond.outputs["Result"])
-    elsewhere = logic("OR", other_mesh, moved)
-    switch = nodes.new("GeometryNodeSwitch")
-    switch.input_type = "GEOMETRY"
-    links.new(logic("OR", sampled(BYPASS_ATTRIBUTE, "BOOLEAN", per_point=False), elsewhere), switch.inputs["Switch"])
-    links.new(drop.outputs["Geometry"], switch.inputs["False"])
-    links.new(inputs.outputs["Geometry"], switch.inputs["True"])
-    fits = nodes.new("FunctionNodeBooleanMath")
-    fits.operation = "NOT"
-    links.new(elsewhere, fits.inputs[0])
-    store = nodes.new("GeometryNodeStoreNamedAttribute")
-    store.data_type, store.domain = "BOOLEAN", "POINT"
-    store.inputs["Name"].default_value = FITS_ATTRIBUTE
-    links.new(switch.outputs["Output"], store.inputs["Geometry"])
-    links.new(fits.outputs[0], store.inputs["Value"])
-    links.new(store.outputs["Geometry"], output.inputs["Geometry"])
-    for i, node in enumerate((inputs, info, index, move, drop, switch, store, output)):
-        node.location = (220 * i, 0)
-    group["deformrt_version"] = GROUP_VERSION
+    g.link(farthest.outputs["Max"], beyond.inputs["A"])
+    g.link(g.sampled(CAGE_TOLERANCE_ATTRIBUTE, "FLOAT", per_point=False), beyond.inputs["B"])
+    return g.logic("AND", g.sampled(CAGE_KNOWN_ATTRIBUTE, "BOOLEAN", per_point=False), beyond.outputs["Result"])
 
 
 def is_our_group(group) -> bool:

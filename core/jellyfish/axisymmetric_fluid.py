@@ -20,7 +20,8 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .particle_fluid import Box, LatticeFluid
+from .fluid_box import Box
+from .particle_fluid import LatticeFluid
 
 
 class AxisymmetricFluid(LatticeFluid):

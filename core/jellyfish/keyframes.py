@@ -22,14 +22,33 @@ class SwimFrame:
     rise_m: float  # along the axis since frame_start
 
 
-def swim_frames(cycle, creature, frame_start, frame_end, cycle_frames, seed, rest, moved, wobbled, faces, normals,
-                thickness) -> list[SwimFrame]:
+@dataclass(frozen=True)
+class FrameRange:
+    """Frames ``start`` to ``end`` (inclusive), one stroke cycle every ``cycle_frames``."""
+
+    start: int
+    end: int
+    cycle_frames: int
+
+
+@dataclass(frozen=True)
+class BellPose:
+    """The bell's ``rest`` vertices with their ``moved`` (contracted) and ``wobbled`` offsets, its
+    ``faces`` and ``normals``, and ``thickness``, the volume offset's unit (the bell's model units)."""
+
+    rest: np.ndarray
+    moved: np.ndarray
+    wobbled: np.ndarray
+    faces: np.ndarray
+    normals: np.ndarray
+    thickness: float
+
+
+def swim_frames(cycle, creature, frames: FrameRange, bell: BellPose, seed=0) -> list[SwimFrame]:
     """One SwimFrame a frame: ``cycle`` the simulated CycleResult (one cycle or several in a row),
-    ``creature`` its stroke; the bell's ``rest`` vertices with their ``moved`` (contracted) and
-    ``wobbled`` offsets, its ``faces`` and ``normals``, ``thickness`` the offset's unit (metres,
-    the bell's model units). The bell rises by the simulated path, cycle after cycle; past the
-    cycles simulated, the last one repeats."""
-    rest_volume = bell3d.volume(rest, faces)
+    ``creature`` its stroke, ``seed`` the wobble's phase. The bell rises by the simulated path,
+    cycle after cycle; past the cycles simulated, the last one repeats."""
+    rest_volume = bell3d.volume(bell.rest, bell.faces)
     per_cycle = cycle.path_per_cycle_m if cycle.path_per_cycle_m is not None else np.array([cycle.path_m])
     simulated = len(per_cycle)
     substeps = len(cycle.speed) // simulated
@@ -44,15 +63,16 @@ def swim_frames(cycle, creature, frame_start, frame_end, cycle_frames, seed, res
         return float(travelled[-1] + whole * per_cycle[-1] + np.interp(tau, times[: substeps + 1], last))
 
     out = []
-    for frame in range(frame_start, frame_end + 1):
-        cycles, tau = divmod((frame - frame_start) / cycle_frames, 1.0)
+    start, cycle_frames = frames.start, frames.cycle_frames
+    for frame in range(start, frames.end + 1):
+        cycles, tau = divmod((frame - start) / cycle_frames, 1.0)
         s = float(phase(tau, creature.contraction))
-        w = 0.5 * (np.sin(2 * np.pi * (frame - frame_start) / (1.7 * cycle_frames) + seed) + 1.0)
-        now = rest + s * moved + w * wobbled
-        offset = bell3d.volume_offset(now, faces, normals, rest_volume) / thickness
-        y = rise((frame - frame_start) / cycle_frames)
+        w = 0.5 * (np.sin(2 * np.pi * (frame - start) / (1.7 * cycle_frames) + seed) + 1.0)
+        now = bell.rest + s * bell.moved + w * bell.wobbled
+        offset = bell3d.volume_offset(now, bell.faces, bell.normals, rest_volume) / bell.thickness
+        y = rise((frame - start) / cycle_frames)
         out.append(SwimFrame(frame, tau, s, w, offset, y))
     return out
 
 
-__all__ = ["SwimFrame", "swim_frames"]
+__all__ = ["BellPose", "FrameRange", "SwimFrame", "swim_frames"]

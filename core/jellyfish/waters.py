@@ -5,7 +5,8 @@ sits in it, and how the bell's section turns into the volume its tissue keeps. O
 import numpy as np
 
 from .axisymmetric_fluid import AxisymmetricFluid
-from .particle_fluid import Box, LatticeFluid
+from .fluid_box import Box
+from .particle_fluid import LatticeFluid
 
 
 class Water:

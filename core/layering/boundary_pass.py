@@ -9,7 +9,8 @@ import numpy as np
 from ..geometry.topology import path_distance
 from ..geometry.vectors import norms, rows
 from .gaussian_peak import largest_gaussian
-from .tracer import off_the_lines, trace_layers
+from .probe_ties import off_the_lines
+from .tracer import HitRules, Probes, trace_layers
 
 
 def spread_from_hits(vertices, faces, topology, hit_points, amplitude, seed_vertices, falloff=None):
@@ -57,10 +58,11 @@ def tuck_under_hems(stack, k):
                                       stack.normals[j][stack.hems[j]], stack.hems[j]) for j in up])
     if not len(o):
         return
-    t, layer, face, r, _ = trace_layers(o, n_o, np.concatenate([stack.probe_len[j][stack.hems[j]] for j in up]),
-                                        np.concatenate([stack.vseg2[j][stack.hems[j]] for j in up]), stack.scenes,
-                                        [k], cull=True, facing=(stack.normals, n_o))
-    stack.rays["boundary"] += r
+    probes = Probes(o, n_o, np.concatenate([stack.probe_len[j][stack.hems[j]] for j in up]),
+                    np.concatenate([stack.vseg2[j][stack.hems[j]] for j in up]))
+    traced = trace_layers(probes, stack.scenes, [k], HitRules(cull=True, facing=(stack.normals, n_o)))
+    t, layer, face = traced.t, traced.layer, traced.face
+    stack.rays["boundary"] += traced.rays
     hit = layer == k
     if not hit.any():
         return

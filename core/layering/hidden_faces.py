@@ -16,7 +16,8 @@ import numpy as np
 
 from ..geometry.topology import used_vertices
 from ..geometry.vectors import box, norms, rows
-from ..rays.scene import RayScene, SceneUnion, step_past_hit
+from ..rays.scene import RayScene, step_past_hit
+from ..rays.scene_union import SceneUnion
 
 _MAX_ROUNDS = 64
 
@@ -64,21 +65,44 @@ def crossing_faces(vertices, faces, edges, scenes=None) -> tuple[list, int]:
     present = [k for k in range(len(faces)) if len(faces[k])]
     if len(present) < 2:
         return removed, 0
-    built = {}
-
-    def scene_of(j):
-        if j not in built:
-            given = scenes[j] if scenes is not None else None
-            built[j] = given if given is not None else RayScene(vertices[j], faces[j])
-        return built[j]
-
-    bounds = {j: _bounds(vertices[j], faces[j]) for j in present}
-    start = [rows(v, e[:, 0]) for v, e in zip(vertices, edges, strict=True)]
-    vec = [rows(v, e[:, 1]) - a for v, e, a in zip(vertices, edges, start, strict=True)]
-    length = [norms(x) for x in vec]
+    layers = _Layers(vertices, faces, edges, scenes, present)
+    found, rays = _edges_through_others(layers)
     crossed = [np.zeros(len(e), dtype=bool) for e in edges]
+    for j in present:
+        if found[j]:
+            rays += _name_crossed(layers, j, found[j], removed, crossed)
+    for k in present:
+        if crossed[k].any():
+            removed[k] |= _edge_faces(faces[k], edges[k], crossed[k], len(vertices[k]))
+    return removed, rays
+
+
+class _Layers:
+    """The layers' edges as rays (start, vector, length), their boxes, and a scene per layer
+    built when first asked."""
+
+    def __init__(self, vertices, faces, edges, scenes, present):
+        self.vertices, self.faces, self.edges, self.present = vertices, faces, edges, present
+        self._given, self._built = scenes, {}
+        self.bounds = {j: _bounds(vertices[j], faces[j]) for j in present}
+        self.start = [rows(v, e[:, 0]) for v, e in zip(vertices, edges, strict=True)]
+        self.vec = [rows(v, e[:, 1]) - a for v, e, a in zip(vertices, edges, self.start, strict=True)]
+        self.length = [norms(x) for x in self.vec]
+
+    def scene(self, j):
+        if j not in self._built:
+            given = self._given[j] if self._given is not None else None
+            self._built[j] = given if given is not None else RayScene(self.vertices[j], self.faces[j])
+        return self._built[j]
+
+
+def _edges_through_others(layers):
+    """Per layer j: (layer k, its edges that pass through something of j) for every other layer k;
+    and rays traced. Each layer's edges go once against all the others together: few cross
+    anything, and only those are asked of each layer in turn."""
+    bounds, length, present = layers.bounds, layers.length, layers.present
+    found = {j: [] for j in present}
     rays = 0
-    found = {j: [] for j in present}  # per layer: (layer, its edges that pass through something of it)
     for k in present:
         own_lo, own_hi = bounds[k]
         others = [j for j in present if j != k and (bounds[j][0] <= own_hi).all() and (bounds[j][1] >= own_lo).all()]
@@ -86,53 +110,55 @@ def crossing_faces(vertices, faces, edges, scenes=None) -> tuple[list, int]:
             continue
         lo = np.min([bounds[j][0] for j in others], axis=0)
         hi = np.max([bounds[j][1] for j in others], axis=0)
-        # a layer's edges once against all the others together: few cross anything
         pick = (np.flatnonzero(length[k] > 0) if (own_lo >= lo).all() and (own_hi <= hi).all() else
-                _edges_near(vertices[k], edges[k], length[k], lo, hi))
+                _edges_near(layers.vertices[k], layers.edges[k], length[k], lo, hi))
         if not len(pick):
             continue
         every = len(pick) == len(length[k])
-        o, d = (start[k], vec[k]) if every else (rows(start[k], pick), rows(vec[k], pick))
-        against = scene_of(others[0]) if len(others) == 1 else SceneUnion([scene_of(j) for j in others])
+        o, d = (layers.start[k], layers.vec[k]) if every else (rows(layers.start[k], pick), rows(layers.vec[k], pick))
+        against = layers.scene(others[0]) if len(others) == 1 else SceneUnion([layers.scene(j) for j in others])
         rays += len(pick)
         hit = pick[against.occluded(o, d, max_dist=1.0, scaled=True)]
         if not len(hit):
             continue
         for j in others:  # which layers those edges cross
-            near = hit if len(others) == 1 else hit[_edges_near(vertices[k], edges[k][hit], length[k][hit], *bounds[j])]
+            near = hit if len(others) == 1 else hit[_edges_near(layers.vertices[k], layers.edges[k][hit],
+                                                                length[k][hit], *bounds[j])]
             if len(near) and len(others) > 1:
                 rays += len(near)
-                near = near[scene_of(j).occluded(rows(start[k], near), rows(vec[k], near), max_dist=1.0, scaled=True)]
+                near = near[layers.scene(j).occluded(rows(layers.start[k], near), rows(layers.vec[k], near),
+                                                     max_dist=1.0, scaled=True)]
             if len(near):
                 found[j].append((k, near))
-    for j in present:
-        if not found[j]:
-            continue
-        scene, (lo, hi) = scene_of(j), bounds[j]
-        # the few edges that cross something, traced on to name each triangle they pass through
-        owner = np.concatenate([np.full(len(idx), k) for k, idx in found[j]])
-        index = np.concatenate([idx for _, idx in found[j]])
-        o = np.concatenate([rows(start[k], idx) for k, idx in found[j]])
-        d = np.concatenate([rows(vec[k], idx) for k, idx in found[j]])
-        tmax = np.concatenate([length[k][idx] for k, idx in found[j]])
-        live = np.arange(len(o))
-        t_min = np.zeros(len(o))
-        step = step_past_hit(tmax, lo, hi)
-        for _ in range(_MAX_ROUNDS):  # every triangle of layer j along each crossing edge
-            if not len(live):
-                break
-            hits = scene.intersect(o[live], d[live], max_dist=tmax[live], min_dist=t_min[live])
-            rays += len(live)
-            live, t, face = live[hits.hit], hits.t[hits.hit], hits.face[hits.hit]
-            up = j > owner[live]  # the edge goes through a higher layer: its own triangles hide
-            for k in np.unique(owner[live[up]]):
-                crossed[k][index[live[up & (owner[live] == k)]]] = True
-            removed[j][face[~up]] = True  # a higher layer's edge goes through this triangle
-            # one hit hides an edge's own triangles; a higher layer's edge goes on to every
-            # triangle of this layer it passes through
-            live, t = live[~up], t[~up]
-            t_min[live] = t + step[live]
-    for k in present:
-        if crossed[k].any():
-            removed[k] |= _edge_faces(faces[k], edges[k], crossed[k], len(vertices[k]))
-    return removed, rays
+    return found, rays
+
+
+def _name_crossed(layers, j, found_j, removed, crossed) -> int:
+    """The few edges that cross layer j, traced on to name each triangle of j they pass through:
+    a higher layer's edge hides every triangle of j it passes through (``removed[j]``); an edge of
+    a layer under j that meets j marks itself crossed (its own triangles hide). Returns rays traced."""
+    scene, (lo, hi) = layers.scene(j), layers.bounds[j]
+    owner = np.concatenate([np.full(len(idx), k) for k, idx in found_j])
+    index = np.concatenate([idx for _, idx in found_j])
+    o = np.concatenate([rows(layers.start[k], idx) for k, idx in found_j])
+    d = np.concatenate([rows(layers.vec[k], idx) for k, idx in found_j])
+    tmax = np.concatenate([layers.length[k][idx] for k, idx in found_j])
+    live = np.arange(len(o))
+    t_min = np.zeros(len(o))
+    step = step_past_hit(tmax, lo, hi)
+    rays = 0
+    for _ in range(_MAX_ROUNDS):
+        if not len(live):
+            break
+        hits = scene.intersect(o[live], d[live], max_dist=tmax[live], min_dist=t_min[live])
+        rays += len(live)
+        live, t, face = live[hits.hit], hits.t[hits.hit], hits.face[hits.hit]
+        up = j > owner[live]  # the edge goes through a higher layer: its own triangles hide
+        for k in np.unique(owner[live[up]]):
+            crossed[k][index[live[up & (owner[live] == k)]]] = True
+        removed[j][face[~up]] = True  # a higher layer's edge goes through this triangle
+        # one hit hides an edge's own triangles; a higher layer's edge goes on to every
+        # triangle of this layer it passes through
+        live, t = live[~up], t[~up]
+        t_min[live] = t + step[live]
+    return rays

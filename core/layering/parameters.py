@@ -112,76 +112,21 @@ class LayeringParameters:
     def parse(cls, body, bv, bf, garr, body_segments, params) -> LayeringParameters:
         """From resolve_layers' arguments, on the BodyFacts ``body`` of (bv, bf)."""
         n_g = len(garr)
-        if body_segments is None:
-            # Separate pieces of the body (a figure modelled as parts) are separate segments.
-            body_seg = body.pieces
-        else:
-            body_seg = np.asarray(body_segments)
-            if body_seg.shape != (len(bv),) or not np.issubdtype(body_seg.dtype, np.integer) or (body_seg < 0).any():
-                raise ValueError(f"body_segments must be {len(bv)} non-negative integers, one per body vertex")
-            body_seg = body_seg.astype(np.int64)
+        body_seg = _body_parts(body, bv, body_segments)
         g_segments = _per_garment(params.get("garment_segments"), n_g, "garment_segments")
         g_normals = _per_garment(params.get("global_normals"), n_g, "global_normals")
         g_corr = _per_garment(params.get("correspondence"), n_g, "correspondence")
-        scheme = params.get("scheme")
-        n_seg = int(body_seg.max()) + 1
-        if n_seg > MAX_SEGMENTS:  # the part-to-part links are a square table of them
-            raise ValueError(f"body_segments ids go up to {n_seg - 1}: number the body's parts 0..k-1 "
-                             f"(at most {MAX_SEGMENTS} parts)")
-        if scheme is not None:
-            if body_segments is None:
-                raise ValueError("a segmentation scheme names body part ids: pass body_segments with it")
-            scheme = get_scheme(scheme)
-            if n_seg > scheme.skirt:
-                raise ValueError(f"body_segments of scheme {scheme.name} must be ids 0..{scheme.skirt - 1} "
-                                 f"({', '.join(scheme.parts[:-1])}); got up to {n_seg - 1}")
-            n_seg = len(scheme.parts)
-        links = params.get("segment_links")
-        if links is None:
-            links = scheme.links() if scheme is not None else np.eye(n_seg, dtype=bool)
-        else:
-            links = np.asarray(links, dtype=bool)
-            if links.ndim == 0:  # True: every part meets every other (a whole body of separate pieces)
-                links = np.full((n_seg, n_seg), bool(links))
-            if links.shape != (n_seg, n_seg):
-                raise ValueError(f"segment_links must be ({n_seg}, {n_seg}) booleans, got shape {links.shape}")
-            links = links | links.T | np.eye(n_seg, dtype=bool)
-        diag = size_of(bv)  # turning the scene must not change the defaults taken from it
-        if diag <= 0:
-            raise ValueError("body has zero size")
-        d = float(params.get("offset", OFFSET_SHARE * diag))
-        if not np.isfinite(d) or d < 0:
-            raise ValueError(f"offset must be a finite distance >= 0, got {d}")
-        if d > MAX_OFFSET * diag:  # a gap wider than a limb: a typo or a unit mix-up, never a layer
-            raise ValueError(f"offset {d:g} is more than {MAX_OFFSET:.0%} of the body's size ({diag:g}): "
-                             "give the gap between layers in the scene's units (about 0.1% of the body)")
-        gap = d + _shell_gap(params.get("outward_shells"), n_g)
-        probe = params.get("probe_distance")
-        given = None if probe is None else np.broadcast_to(np.asarray(probe, dtype=np.float64), (n_seg,)).copy()
-        if given is not None and (np.isinf(given).any() or (given < 0).any()):
-            raise ValueError("probe_distance must be finite and >= 0 (NaN for a part's default)")
-        if given is not None and np.nanmax(given, initial=0.0) > diag:
-            raise ValueError(f"probe_distance {np.nanmax(given):g} is longer than the body ({diag:g}): "
-                             "give about a body part's radius in the scene's units")
-        if given is not None and np.isnan(given).all():
-            given = None
+        scheme, n_seg = _scheme_of(params.get("scheme"), body_seg, body_segments is not None)
+        links = _links(params.get("segment_links"), scheme, n_seg)
+        diag, d, gap = _gaps(bv, params, n_g)
+        given = _probe_given(params.get("probe_distance"), n_seg, diag)
         margin = float(params.get("segment_margin", 0.01 * diag))
         if not np.isfinite(margin) or margin < 0:
             raise ValueError(f"segment_margin must be a finite distance >= 0, got {margin}")
         falloff = params.get("falloff")
         if falloff is not None and not (np.isfinite(falloff) and falloff > 0):
             raise ValueError(f"falloff must be a finite distance > 0 (or None for four edge lengths), got {falloff}")
-        for i, (v, _) in enumerate(garr):  # all given inputs checked now: the untraced are prepared later
-            c = g_corr[i]
-            if c is not None and (len(c.triangle) != len(v) or (len(c.triangle) and c.triangle.max() >= len(bf))):
-                raise ValueError(f"correspondence[{i}] is for another mesh: {len(c.triangle)} points for "
-                                 f"{len(v)} vertices, or triangles beyond the body's {len(bf)}")
-            n = g_normals[i]
-            if n is not None and (np.shape(n) != v.shape or not np.isfinite(n).all()):
-                raise ValueError(f"global_normals[{i}] must be finite with shape {v.shape}")
-            s = g_segments[i]
-            if s is not None and (np.shape(s) != (len(v),) or (len(s) and (np.min(s) < 0 or np.max(s) >= n_seg))):
-                raise ValueError(f"garment_segments[{i}] must be {len(v)} ids in 0..{n_seg - 1}")
+        _check_garment_inputs(garr, len(bf), n_seg, (g_corr, g_normals, g_segments))
         return cls(offset=d, gap=gap, body_segments=body_seg, parts_given=body_segments is not None, scheme=scheme,
                    n_segments=n_seg, links=links, one_part=scheme is None and bool(links.all()), probe_given=given,
                    segment_margin=margin, diagonal=diag, garment_segments=g_segments, global_normals=g_normals,
@@ -189,3 +134,85 @@ class LayeringParameters:
                    push_behind=bool(params.get("push_behind", True)), body_guard=bool(params.get("body_guard", True)),
                    remove_hidden=bool(params.get("remove_hidden", True)),
                    falloff=None if falloff is None else float(falloff))
+
+
+def _body_parts(body, bv, body_segments):
+    """The body's part id per vertex: as given, or its separate pieces (a figure modelled as parts)."""
+    if body_segments is None:
+        return body.pieces
+    body_seg = np.asarray(body_segments)
+    if body_seg.shape != (len(bv),) or not np.issubdtype(body_seg.dtype, np.integer) or (body_seg < 0).any():
+        raise ValueError(f"body_segments must be {len(bv)} non-negative integers, one per body vertex")
+    return body_seg.astype(np.int64)
+
+
+def _scheme_of(scheme, body_seg, parts_given):
+    """(the segmentation scheme named, or None; how many parts there are)."""
+    n_seg = int(body_seg.max()) + 1
+    if n_seg > MAX_SEGMENTS:  # the part-to-part links are a square table of them
+        raise ValueError(f"body_segments ids go up to {n_seg - 1}: number the body's parts 0..k-1 "
+                         f"(at most {MAX_SEGMENTS} parts)")
+    if scheme is None:
+        return None, n_seg
+    if not parts_given:
+        raise ValueError("a segmentation scheme names body part ids: pass body_segments with it")
+    scheme = get_scheme(scheme)
+    if n_seg > scheme.skirt:
+        raise ValueError(f"body_segments of scheme {scheme.name} must be ids 0..{scheme.skirt - 1} "
+                         f"({', '.join(scheme.parts[:-1])}); got up to {n_seg - 1}")
+    return scheme, len(scheme.parts)
+
+
+def _links(links, scheme, n_seg):
+    """Which parts' rays may meet which parts' triangles: symmetric, each part its own."""
+    if links is None:
+        return scheme.links() if scheme is not None else np.eye(n_seg, dtype=bool)
+    links = np.asarray(links, dtype=bool)
+    if links.ndim == 0:  # True: every part meets every other (a whole body of separate pieces)
+        links = np.full((n_seg, n_seg), bool(links))
+    if links.shape != (n_seg, n_seg):
+        raise ValueError(f"segment_links must be ({n_seg}, {n_seg}) booleans, got shape {links.shape}")
+    return links | links.T | np.eye(n_seg, dtype=bool)
+
+
+def _gaps(bv, params, n_g):
+    """(the body's size, the offset between layers, the gap with the outward shells)."""
+    diag = size_of(bv)  # turning the scene must not change the defaults taken from it
+    if diag <= 0:
+        raise ValueError("body has zero size")
+    d = float(params.get("offset", OFFSET_SHARE * diag))
+    if not np.isfinite(d) or d < 0:
+        raise ValueError(f"offset must be a finite distance >= 0, got {d}")
+    if d > MAX_OFFSET * diag:  # a gap wider than a limb: a typo or a unit mix-up, never a layer
+        raise ValueError(f"offset {d:g} is more than {MAX_OFFSET:.0%} of the body's size ({diag:g}): "
+                         "give the gap between layers in the scene's units (about 0.1% of the body)")
+    return diag, d, d + _shell_gap(params.get("outward_shells"), n_g)
+
+
+def _probe_given(probe, n_seg, diag):
+    """The probe distance per part as given (NaN: the part's default), or None."""
+    given = None if probe is None else np.broadcast_to(np.asarray(probe, dtype=np.float64), (n_seg,)).copy()
+    if given is not None and (np.isinf(given).any() or (given < 0).any()):
+        raise ValueError("probe_distance must be finite and >= 0 (NaN for a part's default)")
+    if given is not None and np.nanmax(given, initial=0.0) > diag:
+        raise ValueError(f"probe_distance {np.nanmax(given):g} is longer than the body ({diag:g}): "
+                         "give about a body part's radius in the scene's units")
+    if given is not None and np.isnan(given).all():
+        return None
+    return given
+
+
+def _check_garment_inputs(garr, n_body_faces, n_seg, per_garment):
+    """Every given per-garment input fits its garment (checked now: the untraced are prepared later)."""
+    g_corr, g_normals, g_segments = per_garment
+    for i, (v, _) in enumerate(garr):
+        c = g_corr[i]
+        if c is not None and (len(c.triangle) != len(v) or (len(c.triangle) and c.triangle.max() >= n_body_faces)):
+            raise ValueError(f"correspondence[{i}] is for another mesh: {len(c.triangle)} points for "
+                             f"{len(v)} vertices, or triangles beyond the body's {n_body_faces}")
+        n = g_normals[i]
+        if n is not None and (np.shape(n) != v.shape or not np.isfinite(n).all()):
+            raise ValueError(f"global_normals[{i}] must be finite with shape {v.shape}")
+        s = g_segments[i]
+        if s is not None and (np.shape(s) != (len(v),) or (len(s) and (np.min(s) < 0 or np.max(s) >= n_seg))):
+            raise ValueError(f"garment_segments[{i}] must be {len(v)} ids in 0..{n_seg - 1}")

@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .tracer import off_the_lines, trace_layers
+from .probe_ties import off_the_lines
+from .tracer import HitRules, Probes, trace_layers
 
 
 def push_behind(stack, k):
@@ -46,9 +47,9 @@ def _probe(stack, k, aside, step, creases, skip):
     """(t, layer) of layer k's inward probes, each moved ``aside`` (``step`` long) off its vertex's line."""
     v, gap, normals = stack.verts[k], stack.gap, stack.normals
     start = v + aside + normals[k] * gap
-    t, layer, _, r, secs = trace_layers(start, -normals[k], stack.probe_len[k] + gap, stack.vseg2[k],
-                                        stack.scenes, stack.above(k), farthest=True, facing=(normals, normals[k]),
-                                        skip=skip, creases=(creases, np.full(len(v), 10 * abs(step))))
-    stack.rays["push"] += r
-    stack.push_trace_s += secs
-    return t, layer
+    traced = trace_layers(Probes(start, -normals[k], stack.probe_len[k] + gap, stack.vseg2[k], skip), stack.scenes,
+                          stack.above(k), HitRules(farthest=True, facing=(normals, normals[k]),
+                                                   creases=(creases, np.full(len(v), 10 * abs(step)))))
+    stack.rays["push"] += traced.rays
+    stack.push_trace_s += traced.seconds
+    return traced.t, traced.layer

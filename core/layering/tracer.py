@@ -5,14 +5,16 @@ farthest hit, past hits that face the other way. One Embree scene per layer serv
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..geometry.keys import digest
-from ..geometry.normals import face_normals
 from ..geometry.vectors import box, norms, rows
-from ..rays.scene import RayScene, SceneUnion, step_past_hit
+from ..rays.scene import RayScene, step_past_hit
 from ..rays.scene_cache import kept_scene
+from ..rays.scene_union import SceneUnion
+from .probe_ties import grazing, on_edges
 
 
 class LayerLayout:
@@ -184,105 +186,83 @@ def face_segment(faces, vertex_segment):
     return np.where(s[:, 1] == s[:, 2], s[:, 1], s[:, 0])
 
 
-_GRAZING_COS = 0.05  # about 87 degrees from the triangle's normal
+@dataclass(frozen=True)
+class Probes:
+    """Rays to trace: from ``origins`` along unit ``directions`` up to ``max_dist``, each meeting
+    only the triangles of its own segments (``segment``: (n,) or (n, 2), -1 for no second one);
+    rays where ``skip`` (bool per ray, or None) holds are not traced."""
+
+    origins: np.ndarray
+    directions: np.ndarray
+    max_dist: np.ndarray
+    segment: np.ndarray
+    skip: np.ndarray | None = None
 
 
-def _grazing(vertices, faces, directions):
-    """Per ray (unit ``directions``), whether it runs within _GRAZING_COS of its triangle's plane
-    (a degenerate triangle has none)."""
-    n = face_normals(vertices, faces)
-    return (np.abs(np.einsum("ij,ij->i", n, directions)) < _GRAZING_COS) & (norms(n) > 0)
+@dataclass(frozen=True)
+class HitRules:
+    """Which hit counts. ``farthest``: the farthest within reach, not the nearest. ``cull``: only
+    triangles within reach of the origins go into the scene (rays bunched along a few lines,
+    such as hems). ``facing`` = (global normals per layer, per-ray normals): a hit counts only
+    where the layer's interpolated global normal points the ray's way (the far side of a skirt,
+    met through the gap between the legs, is not in front of the near side). ``creases`` = (per
+    layer its crease edges as sorted vertex pairs or None, a distance per ray): a hit that close
+    to a crease meets nothing there, the ray passes on (a tie float32 decides by round-off, see
+    probe_ties.off_the_lines, decided the same way every time instead)."""
+
+    farthest: bool = False
+    cull: bool = False
+    facing: tuple | None = None
+    creases: tuple | None = None
 
 
-def _on_edges(vertices, faces, edges, points, tolerance):
-    """Per hit (its triangle's corners ``faces``, where it hit ``points``): within ``tolerance``
-    of one of the triangle's corners or edges that lies on ``edges`` (sorted vertex pairs)."""
-    out = np.zeros(len(points), dtype=bool)
-    if not len(edges):
-        return out
-    n_vertices = len(vertices)
-    on = np.zeros(n_vertices, dtype=bool)
-    on[edges.ravel()] = True
-    for a in range(3):
-        near = np.flatnonzero(on[faces[:, a]])
-        out[near] |= norms(points[near] - vertices[faces[near, a]]) <= tolerance[near]
-    keys = np.sort(edges[:, 0] * np.int64(n_vertices) + edges[:, 1])
-    for a, b in ((0, 1), (1, 2), (2, 0)):
-        lo, hi = np.minimum(faces[:, a], faces[:, b]), np.maximum(faces[:, a], faces[:, b])
-        k = lo * np.int64(n_vertices) + hi
-        near = np.flatnonzero(keys[np.minimum(np.searchsorted(keys, k), len(keys) - 1)] == k)
-        if not len(near):
-            continue
-        start, edge = vertices[lo[near]], vertices[hi[near]] - vertices[lo[near]]
-        s = np.clip(np.einsum("ij,ij->i", points[near] - start, edge) / np.maximum(
-            np.einsum("ij,ij->i", edge, edge), 1e-300), 0.0, 1.0)
-        out[near] |= norms(points[near] - start - edge * s[:, None]) <= tolerance[near]
-    return out
+@dataclass
+class Traced:
+    """Per ray the counted hit's distance, layer index (-1: none) and face index within that
+    layer; rays traced and seconds tracing."""
+
+    t: np.ndarray
+    layer: np.ndarray
+    face: np.ndarray
+    rays: int = 0
+    seconds: float = 0.0
 
 
-def off_the_lines(vertices, topology, step, directions, which=None):
-    """Probe origins at ``vertices`` (those of ``which``, indices, if given), each moved ``step``
-    sideways to its probe's direction (``directions``, unit, one per origin), toward the centre of
-    the first triangle it is a corner of: the distance a probe meets something at is then still
-    measured from the vertex.
-
-    Why: artists' garments are often bound vertex by vertex to the same body points, so a probe
-    along a lower garment vertex's normal runs exactly through a higher garment's vertex (its
-    hem's, or any). Embree's float32 test then meets one of the triangles round that vertex or
-    none, by round-off, and which one changed with the scene's orientation (up to 2.4 mm on
-    MakeHuman's outfits). A step of a ten-thousandth of an edge takes the probe off the vertex
-    into a triangle, by the geometry alone: turned with the scene, it is turned the same way."""
-    ids = np.arange(len(vertices)) if which is None else np.asarray(which)
-    out = np.array(vertices[ids], dtype=np.float64, copy=True)
-    first = topology.first_face[ids]
-    has = np.flatnonzero(first < len(topology.faces))
-    if not len(has) or step == 0:
-        return out
-    toward = vertices[topology.faces[first[has]]].mean(axis=1) - out[has]
-    d = directions[has]
-    toward -= d * np.einsum("ij,ij->i", toward, d)[:, None]
-    length = norms(toward)
-    ok = length > 0  # (a negative step goes the other way)
-    out[has[ok]] += toward[ok] * (step / length[ok])[:, None]
-    return out
-
-
-def trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, farthest=False, cull=False,
-                  facing=None, skip=None, creases=None):
-    """Each ray's nearest (or, with ``farthest``, farthest) hit on the given layers (triangles of
-    the ray's own segments only: ``segment`` is (n,) or (n, 2) with -1 for no second one).
-
-    Returns (t, layer index, face index within that layer, rays traced, seconds tracing);
-    layer -1 where nothing was hit. Rays of segments whose triangles' bounds are out of
-    their reach skip a layer; with ``cull`` only triangles within that reach of the origins
-    go into the scene (for rays bunched along a few lines, such as hems). With ``facing`` =
-    (global normals per layer, per-ray normals), a hit counts only where the layer's
-    interpolated global normal points the ray's way: the far side of a skirt, met through
-    the gap between the legs, is not in front of the near side. Rays go on past such hits,
-    and past triangles of segments they may not meet (a ray exactly through an edge between
-    such a triangle and one it may meet misses both: measure zero, unlike a BVH per segment).
-    Rays where ``skip`` (bool per ray, or None) holds are not traced. With ``creases`` = (per
-    layer its crease edges as sorted vertex pairs or None, a distance per ray), a hit that close
-    to a crease meets nothing there: the ray passes on. A probe that close is a tie between
-    meeting the layer and passing beside it, which float32 decides by round-off (see
-    off_the_lines); it is decided the same way every time instead.
-    """
-    n = len(origins)
-    best_t = np.full(n, -np.inf if farthest else np.inf)
-    best_layer = np.full(n, -1)
-    best_face = np.full(n, -1)
-    rays = 0
-    trace_s = 0.0
-    segs = np.asarray(segment).reshape(n, -1)  # a second column: the border segment, -1 for none
-    if skip is not None:
-        segs = np.where(skip[:, None], -1, segs)
-    ray_segments = np.unique(segs[segs >= 0])
+def trace_layers(probes: Probes, layer_scenes, layers, rules: HitRules = HitRules()) -> Traced:
+    """Each probe's nearest (or farthest) hit on the given layers by ``rules``: rays of segments
+    whose triangles' bounds are out of their reach skip a layer; rays go on past hits that do
+    not count and past triangles of segments they may not meet (a ray exactly through an edge
+    between such a triangle and one it may meet misses both: measure zero, unlike a BVH per
+    segment)."""
+    n = len(probes.origins)
+    out = Traced(np.full(n, -np.inf if rules.farthest else np.inf), np.full(n, -1), np.full(n, -1))
+    segs = np.asarray(probes.segment).reshape(n, -1)  # a second column: the border segment, -1 for none
+    if probes.skip is not None:
+        segs = np.where(probes.skip[:, None], -1, segs)
     layers = list(layers)
-    if not len(ray_segments) or not layers:
-        return best_t, best_layer, best_face, rays, trace_s
+    if not (segs >= 0).any() or not layers:
+        return out
+    allowed, plan = _plan(probes, segs, layer_scenes, layers)
+    if not rules.cull and len(plan) > 1:
+        t0 = time.perf_counter()
+        meets, asked = _meeting_any(probes.origins, probes.directions, probes.max_dist, plan, layer_scenes)
+        out.seconds += time.perf_counter() - t0
+        out.rays += asked
+        if meets is not None:
+            plan = [(k, idx[meets[idx]], lo, hi) for k, idx, lo, hi in plan]
+    for k, idx, lo, hi in plan:
+        if len(idx):
+            _trace_layer(probes, layer_scenes[k], k, idx, (lo, hi), allowed, rules, out)
+    return out
+
+
+def _plan(probes, segs, layer_scenes, layers):
+    """Per ray the face segments it may meet (its own segments' links), and per layer (k, the
+    rays of every segment whose triangles' box is within those rays' reach, their box)."""
+    origins, max_dist = probes.origins, probes.max_dist
+    ray_segments = np.unique(segs[segs >= 0])
     links = layer_scenes[layers[0]].layout.links
-    # per ray, the face segments it may meet: its own segments' links
-    allowed = np.zeros((n, len(links)), dtype=bool)
+    allowed = np.zeros((len(origins), len(links)), dtype=bool)
     rows_of, box_of = {}, {}
     for s in ray_segments:
         members = rows_of[s] = np.flatnonzero(_either_column(segs == s))
@@ -292,7 +272,6 @@ def trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, f
                               [(origins[members, a] + reach).max() for a in range(3)]])
     plan = []
     for k in layers:
-        # the rays of every segment whose triangles' box is within those rays' reach
         near = [s for s in ray_segments if layer_scenes[k].bounds_overlap(s, *box_of[s])]
         if near:
             boxes = np.array([box_of[s] for s in near])
@@ -304,68 +283,64 @@ def trace_layers(origins, directions, max_dist, segment, layer_scenes, layers, f
                 listed[near] = True
                 idx = np.flatnonzero(_either_column(listed[segs]))
             plan.append((k, idx, boxes[:, 0].min(0), boxes[:, 1].max(0)))
-    if not cull and len(plan) > 1:
+    return allowed, plan
+
+
+def _trace_layer(probes, scenes, k, idx, bounds, allowed, rules, out: Traced) -> None:
+    """Rays ``idx`` against layer k's SegmentScenes (``bounds`` the box of their reach), past
+    every hit that does not count, keeping in ``out`` each one's best hit so far."""
+    max_dist = probes.max_dist
+    if rules.cull:
+        found = scenes.get_near(np.flatnonzero(allowed[idx].any(0)[scenes.face_segment]), probes.origins[idx],
+                                float(max_dist[idx].max()))
+    else:
+        found = scenes.full(), None
+    if found is None:
+        return
+    scene, ids = found
+    scene.commit()  # the BVH build is not tracing
+    o, ray_dir, length = rows(probes.origins, idx), rows(probes.directions, idx), max_dist[idx]
+    if rules.farthest:
+        # the farthest hit within reach is the first met coming back from the far end
+        # (a fold of one layer has two sheets in reach: the vertex goes behind both)
+        o, ray_dir = o + ray_dir * length[:, None], -ray_dir
+    step = step_past_hit(length, *bounds)
+    live, t_min = slice(None), np.zeros(len(idx))
+    for _ in range(_PASS_ROUNDS):
         t0 = time.perf_counter()
-        meets, asked = _meeting_any(origins, directions, max_dist, plan, layer_scenes)
-        trace_s += time.perf_counter() - t0
-        rays += asked
-        if meets is not None:
-            plan = [(k, idx[meets[idx]], lo, hi) for k, idx, lo, hi in plan]
-    for k, idx, lo, hi in plan:
-        if not len(idx):
-            continue
-        scenes = layer_scenes[k]
-        if cull:
-            found = scenes.get_near(np.flatnonzero(allowed[idx].any(0)[scenes.face_segment]), origins[idx],
-                                    float(max_dist[idx].max()))
-        else:
-            found = scenes.full(), None
-        if found is None:
-            continue
-        scene, ids = found
-        scene.commit()  # the BVH build is not tracing
-        o, ray_dir, length = rows(origins, idx), rows(directions, idx), max_dist[idx]
-        if farthest:
-            # the farthest hit within reach is the first met coming back from the far end
-            # (a fold of one layer has two sheets in reach: the vertex goes behind both)
-            o, ray_dir = o + ray_dir * length[:, None], -ray_dir
-        step = step_past_hit(length, lo, hi)
-        live, t_min = slice(None), np.zeros(len(idx))
-        for _ in range(_PASS_ROUNDS):
-            t0 = time.perf_counter()
-            hits = scene.intersect(o[live], ray_dir[live], max_dist=length[live],
-                                   min_dist=None if isinstance(live, slice) else t_min[live])
-            trace_s += time.perf_counter() - t0
-            rays += len(hits.t)
-            live = np.arange(len(idx)) if isinstance(live, slice) else live
-            live, t_hit, face = live[hits.hit], hits.t[hits.hit], hits.face[hits.hit]
-            if ids is not None:
-                face = ids[face]
-            ok = allowed[idx[live], scenes.face_segment[face]]
-            if creases is not None and creases[0][k] is not None and len(live):
-                ok &= ~_on_edges(scenes.vertices, rows(scenes.faces, face), creases[0][k],
-                                 o[live] + ray_dir[live] * t_hit[:, None], creases[1][idx[live]])
-            if facing is not None and len(live):
-                # a triangle the probe runs along (a Solidify rim, a fold seen edge-on) is not in
-                # front of it: where along the rim the probe meets it is round-off, by millimetres
-                ok &= ~_grazing(scenes.vertices, rows(scenes.faces, face), ray_dir[live])
-                u, w = hits.bary[hits.hit, 0], hits.bary[hits.hit, 1]
-                nk = rows(facing[0][k], rows(scenes.faces, face))
-                n_hit = (1 - u - w)[:, None] * nk[:, 0] + u[:, None] * nk[:, 1] + w[:, None] * nk[:, 2]
-                ok &= np.einsum("ij,ij->i", n_hit, rows(facing[1], idx[live])) > 0
-            t_ray = length[live] - t_hit if farthest else t_hit
-            better = ok & ((t_ray > best_t[idx[live]]) if farthest else (t_ray < best_t[idx[live]]))
-            sel = idx[live[better]]
-            best_t[sel] = t_ray[better]
-            best_layer[sel] = k
-            best_face[sel] = face[better]
-            # a hit facing the other way (the far side of a skirt) or on a part the ray may not
-            # meet hides nothing: look past it
-            t_min[live] = t_hit + step[live]
-            live = live[~ok]
-            if not len(live):
-                break
-    return best_t, best_layer, best_face, rays, trace_s
+        hits = scene.intersect(o[live], ray_dir[live], max_dist=length[live],
+                               min_dist=None if isinstance(live, slice) else t_min[live])
+        out.seconds += time.perf_counter() - t0
+        out.rays += len(hits.t)
+        live = np.arange(len(idx)) if isinstance(live, slice) else live
+        live, t_hit, face = live[hits.hit], hits.t[hits.hit], hits.face[hits.hit]
+        if ids is not None:
+            face = ids[face]
+        ok = allowed[idx[live], scenes.face_segment[face]]
+        corners = rows(scenes.faces, face) if rules.creases is not None or rules.facing is not None else None
+        if rules.creases is not None and rules.creases[0][k] is not None and len(live):
+            ok &= ~on_edges(scenes.vertices, corners, rules.creases[0][k],
+                            o[live] + ray_dir[live] * t_hit[:, None], rules.creases[1][idx[live]])
+        if rules.facing is not None and len(live):
+            # a triangle the probe runs along (a Solidify rim, a fold seen edge-on) is not in
+            # front of it: where along the rim the probe meets it is round-off, by millimetres
+            ok &= ~grazing(scenes.vertices, corners, ray_dir[live])
+            u, w = hits.bary[hits.hit, 0], hits.bary[hits.hit, 1]
+            nk = rows(rules.facing[0][k], corners)
+            n_hit = (1 - u - w)[:, None] * nk[:, 0] + u[:, None] * nk[:, 1] + w[:, None] * nk[:, 2]
+            ok &= np.einsum("ij,ij->i", n_hit, rows(rules.facing[1], idx[live])) > 0
+        t_ray = length[live] - t_hit if rules.farthest else t_hit
+        better = ok & ((t_ray > out.t[idx[live]]) if rules.farthest else (t_ray < out.t[idx[live]]))
+        sel = idx[live[better]]
+        out.t[sel] = t_ray[better]
+        out.layer[sel] = k
+        out.face[sel] = face[better]
+        # a hit facing the other way (the far side of a skirt) or on a part the ray may not
+        # meet hides nothing: look past it
+        t_min[live] = t_hit + step[live]
+        live = live[~ok]
+        if not len(live):
+            break
 
 
 # Rays asked first whether they meet anything at all, to learn whether that test pays
@@ -403,4 +378,4 @@ def _meeting_any(origins, directions, max_dist, plan, layer_scenes):
     return out, traced + len(asked)
 
 
-__all__ = ["LayerLayout", "SegmentScenes", "face_segment", "trace_layers", "voxel_near"]
+__all__ = ["HitRules", "LayerLayout", "Probes", "SegmentScenes", "Traced", "face_segment", "trace_layers", "voxel_near"]

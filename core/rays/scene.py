@@ -14,10 +14,11 @@ import numpy as np
 
 from ..geometry.parallel import thread_count
 from ..geometry.topology import used_vertices
-from ..geometry.vectors import box, cross, norms, rows
-from . import embree, embree_direct, numpy_backend
+from ..geometry.vectors import box, cross, rows
+from . import embree, numpy_backend
+from .ray_input import as_points, as_range, as_rays, occlusion_rays, step_past_hit, unit_rays
 
-__all__ = ["RayHits", "RayScene", "ScenePart", "SceneUnion", "step_past_hit", "thread_count", "unit_rays"]
+__all__ = ["RayHits", "RayScene", "ScenePart", "step_past_hit", "thread_count", "unit_rays"]
 
 
 def engine_for(vertices, faces, center):
@@ -59,50 +60,11 @@ class RayHits:
 
     def points(self, origins, directions) -> np.ndarray:
         """Hit points (NaN on a miss), using the unit directions the rays were traced with."""
-        o, d = _as_rays(origins, directions)
+        o, d = as_rays(origins, directions)
         out = np.full_like(o, np.nan)
         h = self.hit
         out[h] = o[h] + d[h] * self.t[h, None]
         return out
-
-
-def _as_points(name: str, arr, allow_empty: bool = True) -> np.ndarray:
-    a = np.asarray(arr, dtype=np.float64)
-    if a.ndim != 2 or a.shape[1] != 3:
-        raise ValueError(f"{name} must have shape (n, 3), got {a.shape}")
-    if not allow_empty and len(a) == 0:
-        raise ValueError(f"{name} is empty")
-    if not np.isfinite(a).all():
-        raise ValueError(f"{name} contains NaN or infinite values")
-    return a
-
-
-def _as_rays(origins, directions, scaled=False) -> tuple[np.ndarray, np.ndarray]:
-    o = _as_points("origins", origins)
-    d = _as_points("directions", directions)
-    if d.shape != o.shape:
-        raise ValueError(f"origins {o.shape} and directions {d.shape} must have the same shape")
-    if scaled:
-        return o, d
-    length = norms(d)
-    if len(length) and not (length > 0).all():
-        raise ValueError(f"directions has {(length <= 0).sum()} zero-length vectors")
-    return o, d / length[:, None] if len(d) else d
-
-
-def unit_rays(origins, directions) -> tuple[np.ndarray, np.ndarray]:
-    """Checked rays as float64 arrays, directions of length one: for callers that trace pieces
-    of them several times (``scaled=True`` then skips scaling them each time)."""
-    return _as_rays(origins, directions)
-
-
-def _as_range(name: str, value, n: int, default: float) -> np.ndarray:
-    if value is None:
-        return np.full(n, default)
-    arr = np.broadcast_to(np.asarray(value, dtype=np.float64), (n,))
-    if np.isnan(arr).any():
-        raise ValueError(f"{name} contains NaN")
-    return arr
 
 
 class RayScene:
@@ -131,7 +93,7 @@ class RayScene:
         return f.astype(np.int64)
 
     def _set_vertices(self, vertices, in_place=False):
-        v = _as_points("vertices", vertices)
+        v = as_points("vertices", vertices)
         f = self._faces
         if len(f) and (f.min() < 0 or f.max() >= len(v)):
             raise ValueError(
@@ -240,13 +202,13 @@ class RayScene:
         units of each direction's length), so rays already of length one are not made so again.
         """
         self._check_fresh()
-        o, d = _as_rays(origins, directions, scaled)
+        o, d = as_rays(origins, directions, scaled)
         n = len(o)
-        tmax = _as_range("max_dist", max_dist, n, np.inf)
+        tmax = as_range("max_dist", max_dist, n, np.inf)
         t = np.full(n, np.inf)
         face = np.full(n, -1, dtype=np.int64)
         bary = np.zeros((n, 2))
-        tmin = _as_range("min_dist", min_dist, n, 0.0)
+        tmin = as_range("min_dist", min_dist, n, 0.0)
         if not tmin.any() and (max_dist is None or (tmax >= 0).all()):
             tmin, idx = None, None  # every ray traced as given: no index copies
         else:
@@ -273,7 +235,7 @@ class RayScene:
         ``scaled``: the directions are used as given, not made of length one, and the distances
         are in units of each direction's length (an edge as origin and vector: 0..1)."""
         self._check_fresh()
-        o, d, tmin, tmax, out, idx = _occlusion_rays(origins, directions, max_dist, min_dist, scaled)
+        o, d, tmin, tmax, out, idx = occlusion_rays(origins, directions, max_dist, min_dist, scaled)
         if self._engine is None or idx is None:
             return out
         out[idx] = self._engine.occluded(self, o[idx], d[idx], None if min_dist is None else tmin[idx], tmax[idx],
@@ -378,66 +340,3 @@ class ScenePart(RayScene):
     def _check_fresh(self):
         if self._whole._moves != self._whole_moves:
             raise RuntimeError("the scene this part was made from has moved since: make the part again")
-
-
-def _occlusion_rays(origins, directions, max_dist, min_dist, scaled):
-    """Checked rays of an occlusion query: (o, d, tmin, tmax, all-False answers, the rays with
-    tmax >= tmin as a slice or indices, None when there are none)."""
-    o, d = _as_rays(origins, directions, scaled)
-    n = len(o)
-    tmax = _as_range("max_dist", max_dist, n, np.inf)
-    tmin = _as_range("min_dist", min_dist, n, 0.0)
-    active = tmax >= tmin
-    # every ray from its own origin (the common case): no gathers, no shifted origins
-    idx = None if not active.any() else slice(None) if active.all() else np.flatnonzero(active)
-    return o, d, tmin, tmax, np.zeros(n, dtype=bool), idx
-
-
-class SceneUnion:
-    """Occlusion against several scenes at once, for rays that only need to know whether any of
-    them is in the way: one Embree scene instancing theirs, so each ray crosses one BVH over
-    all of them instead of being traced against each in turn (about a third less time for
-    three layers; docs/REPORT.md, layering). Without instancing, each scene is asked in turn.
-    A member that moves after the union is made must not be asked through it (checked)."""
-
-    def __init__(self, scenes):
-        self._members = [s for s in scenes if len(s.faces)]
-        self.threads = max((s.threads for s in self._members), default=thread_count())
-        self._versions = [s.version() for s in self._members]
-        self._scene = None
-        direct = len(self._members) > 1 and all(s.backend == "embree" for s in self._members)
-        held = [s.instance_handles() for s in self._members] if direct and embree_direct.available(embree.new_scene) \
-            else None
-        if held is not None and all(h is not None for h in held):
-            for s in self._members:
-                s.commit()  # Embree builds an instanced scene before the one holding it
-            self._center = np.mean([s.center for s in self._members], axis=0)
-            self._scene = embree.new_scene()
-            embree_direct.instance(self._scene, [h for hs in held for h in hs],
-                                   [s.center - self._center for s, hs in zip(self._members, held, strict=True)
-                                    for _ in hs])
-
-    def occluded(self, origins, directions, max_dist=None, min_dist=None, scaled=False) -> np.ndarray:
-        """As :meth:`RayScene.occluded`, against every member."""
-        if [s.version() for s in self._members] != self._versions:
-            raise RuntimeError("a scene of this union has moved since: make the union again")
-        if self._scene is None:
-            out = np.zeros(len(origins), dtype=bool)
-            for s in self._members:
-                out |= s.occluded(origins, directions, max_dist=max_dist, min_dist=min_dist, scaled=scaled)
-            return out
-        o, d, tmin, tmax, out, idx = _occlusion_rays(origins, directions, max_dist, min_dist, scaled)
-        if idx is None:
-            return out
-        out[idx] = embree.occluded(self._scene, self._center, self.threads, o[idx], d[idx],
-                                    None if min_dist is None else tmin[idx], tmax[idx] - tmin[idx])
-        return out
-
-
-def step_past_hit(length, lo, hi):
-    """How far past a hit the next search of a ray starts (``length`` its reach, lo..hi the box
-    its scene works in): float32 tracing could meet the same triangle again any nearer, and
-    its round-off grows with the ray's reach and the scene's size."""
-    return 1e-6 * (length + float(norms((np.asarray(hi) - np.asarray(lo))[None])[0]))
-
-

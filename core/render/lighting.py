@@ -32,14 +32,44 @@ class Light:
     shadow: bool = True  # False: lights what faces it, through anything
 
 
-def direct_light(scene, lights, p, start, nrm, d, albedo, spec, shine, ambient, stats, layered, obj, blockers=None):
+@dataclass
+class Shading:
+    """What lights a render's points: its LayeredScene and lights, the ambient light, whether it
+    traces layered, its stats (``shadow_rays`` counted), and ``blockers``: (the scene shadow rays
+    meet, each object's index in it) when some objects cast no shadow, else None."""
+
+    scene: object
+    lights: list
+    ambient: object
+    layered: bool
+    stats: dict
+    blockers: tuple | None = None
+
+
+@dataclass
+class LitPoints:
+    """Points to light: where they are (``p``), where their shadow rays leave from (``start``),
+    their normals facing the viewer, the rays that met them (``d``), the object each is on, and
+    their material's albedo, specular weight and shininess."""
+
+    p: np.ndarray
+    start: np.ndarray
+    nrm: np.ndarray
+    d: np.ndarray
+    obj: np.ndarray
+    albedo: np.ndarray
+    spec: np.ndarray
+    shine: np.ndarray
+
+
+def direct_light(shading: Shading, at: LitPoints):
     """Blinn-Phong from each light that the point sees (shadow rays), plus ambient. In layered
     tracing a covered lower layer casts no shadow: a surface that is not shown must not darken
-    the one shown over it. Shadow rays leave from ``start``; ``blockers``: (the scene they meet,
-    each object's index in it) when some objects cast no shadow."""
-    blocker, index = blockers if blockers is not None else (scene, None)
-    out = ambient * albedo
-    for kind, vec, colour, reach, casts in _emitters(lights):
+    the one shown over it."""
+    scene, p, nrm, albedo = shading.scene, at.p, at.nrm, at.albedo
+    blocker, index = shading.blockers if shading.blockers is not None else (scene, None)
+    out = shading.ambient * albedo
+    for kind, vec, colour, reach, casts in _emitters(shading.lights):
         if kind == "SUN":
             to_l = np.broadcast_to(-vec / np.linalg.norm(vec), p.shape)
             dist = np.full(len(p), np.inf)
@@ -58,19 +88,19 @@ def direct_light(scene, lights, p, start, nrm, d, albedo, spec, shine, ambient, 
             continue
         idx = np.flatnonzero(lit)
         if casts:
-            leaving = obj[idx] if index is None else index[obj[idx]]
-            shadow = blocker.blocked(start[idx], to_l[idx], dist[idx] - 2 * scene.eps, layered=layered,
+            leaving = at.obj[idx] if index is None else index[at.obj[idx]]
+            shadow = blocker.blocked(at.start[idx], to_l[idx], dist[idx] - 2 * scene.eps, layered=shading.layered,
                                      leaving=leaving)
-            stats["shadow_rays"] += len(idx)
+            shading.stats["shadow_rays"] += len(idx)
             idx = idx[~shadow]
         n_i, l_i = rows(nrm, idx), rows(to_l, idx)
         cos = np.einsum("ij,ij->i", n_i, l_i)
         shade = rows(albedo, idx) * cos[:, None]
-        if spec[idx].any():  # no highlight to add on purely diffuse surfaces
-            half = l_i - rows(d, idx)
+        if at.spec[idx].any():  # no highlight to add on purely diffuse surfaces
+            half = l_i - rows(at.d, idx)
             half /= np.maximum(norms(half), 1e-300)[:, None]
-            blinn = np.maximum(0.0, np.einsum("ij,ij->i", n_i, half)) ** shine[idx]
-            shade += (spec[idx] * blinn)[:, None]
+            blinn = np.maximum(0.0, np.einsum("ij,ij->i", n_i, half)) ** at.shine[idx]
+            shade += (at.spec[idx] * blinn)[:, None]
         out[idx] += rows(power, idx) * shade
     return out
 

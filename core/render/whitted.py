@@ -14,7 +14,7 @@ import numpy as np
 from ..geometry.vectors import norms, rows
 from ..rays.scene import unit_rays
 from .layered_trace import LayeredScene, Visible
-from .lighting import direct_light
+from .lighting import LitPoints, Shading, direct_light
 from .surfaces import Surfaces, bilinear, corner_blend, shading_normal, shadow_origin
 
 LUMA = np.array([0.299, 0.587, 0.114])  # NTSC luminance weights
@@ -156,7 +156,8 @@ class _Whitted:
                       for k in ("transmission", "mirror", "ior", "specular", "shininess")}
         # what shadow rays meet, and each object's index there
         shadowless = settings.shadowless
-        self.blockers = (scene, None) if shadowless is None or not np.any(shadowless) else scene.without(shadowless)
+        blockers = (scene, None) if shadowless is None or not np.any(shadowless) else scene.without(shadowless)
+        self.shading = Shading(scene, lights, settings.ambient, settings.layered, self.stats, blockers)
         # the objects each kind of secondary ray passes through
         self.passes = [None if m is None or not np.any(m) else m for m in (settings.unreflected, settings.unrefracted)]
 
@@ -225,9 +226,8 @@ class _Whitted:
         local = (1 - trans) * (1 - mirror)
         start = shadow_origin(scene, obj, face, bary, p, np.where(entering, 1.0, -1.0), corners) + nrm * scene.eps
         albedo_hit = self._albedo(mat, obj, face, bary)
-        colour_local = direct_light(scene, self.lights, p, start, nrm, d, albedo_hit, props["specular"][mat],
-                               props["shininess"][mat], self.settings.ambient, self.stats, self.settings.layered, obj,
-                               self.blockers)
+        colour_local = direct_light(self.shading, LitPoints(p, start, nrm, d, obj, albedo_hit, props["specular"][mat],
+                                                            props["shininess"][mat]))
         seen = rays.weight * local[:, None] * colour_local
         if self.glows:  # emission on top, whatever share of the light the surface reflects or lets through
             seen += rays.weight * self.emission[mat]

@@ -7,7 +7,8 @@ import pytest
 from scipy.linalg import lstsq, null_space
 
 from core.jellyfish.body_projection import ImposedBody, project_with_body
-from core.jellyfish.particle_fluid import Box, LatticeFluid
+from core.jellyfish.fluid_box import Box
+from core.jellyfish.particle_fluid import LatticeFluid
 
 
 def disc_in_a_swirl(nx=24):

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from core.jellyfish import default_config, default_creature, one_cycle, simulate_cycles
-from core.jellyfish.keyframes import swim_frames
+from core.jellyfish.keyframes import BellPose, FrameRange, swim_frames
 
 
 @pytest.fixture(scope="module")
@@ -17,7 +17,8 @@ def _rises(cfg, run, frames, cycle_frames):
     rest = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
     faces = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
     zero = np.zeros_like(rest)
-    out = swim_frames(run, default_creature(cfg), 1, frames, cycle_frames, 0, rest, zero, zero, faces, zero, 1.0)
+    out = swim_frames(run, default_creature(cfg), FrameRange(1, frames, cycle_frames),
+                      BellPose(rest, zero, zero, faces, zero, 1.0))
     return np.array([f.rise_m for f in out])
 
 

@@ -4,7 +4,8 @@ start-up series), Couette, a decaying Taylor-Green vortex; conservation; stiff a
 import numpy as np
 import pytest
 
-from core.jellyfish.particle_fluid import Box, FluidBlowUp, LatticeFluid
+from core.jellyfish.fluid_box import Box, FluidBlowUp
+from core.jellyfish.particle_fluid import LatticeFluid
 
 H, G, NU = 1.0, 1.0, 0.1
 

@@ -7,7 +7,8 @@ import pytest
 from core.jellyfish import default_config, default_creature, simulate_cycle, simulate_cycles
 from core.jellyfish.bell import BellMap, Creature, SolidBell
 from core.jellyfish.evaluation import Cancelled
-from core.jellyfish.particle_fluid import Box, LatticeFluid
+from core.jellyfish.fluid_box import Box
+from core.jellyfish.particle_fluid import LatticeFluid
 from core.jellyfish.waters import WATERS
 
 

@@ -568,7 +568,7 @@ def test_a_large_offset_never_pushes_garments_into_the_body():
 
 def test_culled_hem_scenes_give_the_same_hits_as_the_whole_layer():
     from core.geometry.topology import boundary_vertices
-    from core.layering.tracer import LayerLayout, SegmentScenes, trace_layers
+    from core.layering.tracer import HitRules, LayerLayout, Probes, SegmentScenes, trace_layers
 
     lower, upper = noisy_sleeves(n=48)
     f = np.asarray(lower.faces)
@@ -580,8 +580,8 @@ def test_culled_hem_scenes_give_the_same_hits_as_the_whole_layer():
     n /= np.linalg.norm(n, axis=1, keepdims=True)
     for sign in (1, -1):
         reach = np.full(len(o), 0.03)
-        args = (o, sign * n, reach, np.zeros(len(o), int), scenes, [0])
-        t_cull, _, f_cull, _, _ = trace_layers(*args, cull=True)
+        culled = trace_layers(Probes(o, sign * n, reach, np.zeros(len(o), int)), scenes, [0], HitRules(cull=True))
+        t_cull, f_cull = culled.t, culled.face
         full = scenes[0].full().intersect(o, sign * n, max_dist=reach)
         assert (np.isfinite(t_cull) == full.hit).all() and full.hit.any()
         np.testing.assert_allclose(t_cull[full.hit], full.t[full.hit], atol=1e-12)
@@ -596,7 +596,7 @@ def test_culled_hem_scenes_give_the_same_hits_as_the_whole_layer():
 def test_one_scene_per_layer_gives_each_ray_only_its_own_segments_hits():
     """Rays are traced against one scene of the whole layer and pass over triangles of parts
     they may not meet: the answer is brute force over just the triangles they may meet."""
-    from core.layering.tracer import LayerLayout, SegmentScenes, trace_layers
+    from core.layering.tracer import HitRules, LayerLayout, Probes, SegmentScenes, trace_layers
     from tests.core.brute import moller_trumbore
 
     lower, upper = noisy_sleeves(n=32)
@@ -620,7 +620,8 @@ def test_one_scene_per_layer_gives_each_ray_only_its_own_segments_hits():
     allowed = links[segs[:, 0]] | np.where(segs[:, 1:] >= 0, links[np.maximum(segs[:, 1], 0)], False)
     for farthest in (False, True):
         scenes = [SegmentScenes(v, LayerLayout(f, fseg, links))]
-        t, layer, face, _, _ = trace_layers(o, out, reach, segs, scenes, [0], farthest=farthest)
+        traced = trace_layers(Probes(o, out, reach, segs), scenes, [0], HitRules(farthest=farthest))
+        t, layer, face = traced.t, traced.layer, traced.face
         # brute force per set of parts a ray may meet; the farthest hit within reach is the
         # nearest one coming back from the far end
         start, way = (o + 0.04 * out, -out) if farthest else (o, out)
