@@ -14,6 +14,7 @@ the Courant number at most ``cfl``, so any step is stable; a blow-up raises Flui
 """
 
 import time
+from dataclasses import replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -86,6 +87,13 @@ class LatticeFluid:
         self.forcing_miss = 0.0  # the last step's largest |u - body velocity| on a forced body, m/s
         self.forcing_taken = 0  # the last step's GMRES corrections on a forced body
         self.timings = {"advect_s": 0.0, "viscous_s": 0.0, "pressure_s": 0.0}
+
+    def move_walls(self, wall_velocity: dict) -> None:
+        """The walls' velocities along themselves (m/s by side, as Box takes them) from the next step
+        on: a wall oscillating in its own plane is one moved before every step."""
+        self.box = replace(self.box, wall_velocity=dict(wall_velocity))
+        _, _, _, self._offset = ghosts(self.points, self.box, self.re)
+        self._viscous = {}  # their constant parts hold the old walls
 
     # --- values at ghosts -------------------------------------------------------------
     def _extended(self, u):

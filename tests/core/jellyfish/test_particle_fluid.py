@@ -1,5 +1,6 @@
 """The particle-gridless fluid against flows with known answers: plane Poiseuille (steady and
-start-up series), Couette, a decaying Taylor-Green vortex; conservation; stiff and bad input."""
+start-up series), Couette, Stokes' oscillating wall, a decaying Taylor-Green vortex; conservation;
+stiff and bad input."""
 
 import numpy as np
 import pytest
@@ -53,6 +54,41 @@ def test_couette_flow_under_a_moving_lid_is_linear():
         f.step(0.05)
     np.testing.assert_allclose(f.u[:, 0], 0.3 * f.points[:, 1] / H, atol=1e-4 * 0.3)
     assert np.abs(f.u[:, 1]).max() < 1e-12
+
+
+def stokes_layer(per_layer, steps, nu=1e-5, period=1.0, speed=0.01):
+    """Stokes' second problem: water over a wall sliding to and fro at speed cos(w t), from its
+    periodic state at t = 0 through one period (wall moved before each step), on a lattice of
+    ``per_layer`` spacings per layer thickness delta = sqrt(2 nu / w), 8 delta deep (a mirror on
+    top); the largest miss against u = U e^(-y/delta) cos(w t - y/delta), over U."""
+    w = 2 * np.pi / period
+    delta = np.sqrt(2 * nu / w)
+    exact = lambda y, t: speed * np.exp(-y / delta) * np.cos(w * t - y / delta)  # noqa: E731
+    ny = int(round(8 * per_layer))
+    h = 8 * delta / ny
+    f = LatticeFluid(Box(4 * h, 8 * delta, periodic=(True, False), mirrors=("top",)), nx=4, ny=ny, viscosity=nu,
+                     density=1000.0)
+    y = f.points[:, 1]
+    f.u[:, 0] = exact(y, 0.0)
+    dt = period / steps
+    for i in range(steps):
+        f.move_walls({"bottom": speed * np.cos(w * (i + 1) * dt)})
+        f.step(dt)
+    return float(np.abs(f.u[:, 0] - exact(y, period)).max() / speed), float(np.abs(f.u[:, 1]).max() / speed)
+
+
+def test_the_layer_over_an_oscillating_wall_converges_to_stokes_solution():
+    """The thin shear layer a swimming bell sheds into, against its analytic answer: resolved by two
+    spacings a layer thickness it misses by 2%, by four 0.6%, about second order; unresolved (one
+    spacing a layer, the jellyfish's default lattice in its default water) by 10%. A wall moved but
+    not seen by the ghosts, or its constant part kept from before, misses by the whole speed."""
+    coarse, across = stokes_layer(2, 400)
+    fine, _ = stokes_layer(4, 400)
+    unresolved, _ = stokes_layer(1, 400)
+    assert fine < 0.01 and coarse < 0.03
+    assert coarse / fine > 2.5
+    assert unresolved > 0.05
+    assert across < 1e-9  # the layer only shears: nothing crosses it
 
 
 def taylor_green(n, nu=0.01):
@@ -208,6 +244,7 @@ def test_corrections_leave_the_field_closer_to_the_body_s_velocity():
     (lambda: LatticeFluid(Box(1.0, 1.0), nx=8).step(np.nan), "dt"),
     (lambda: LatticeFluid(Box(1.0, 1.0), nx=8, forcing_corrections=-1), "forcing_corrections"),
     (lambda: LatticeFluid(Box(1.0, 1.0, wall_velocity={"top": 1.0}), nx=8).step(0.01, object()), "walls at rest"),
+    (lambda: LatticeFluid(Box(1.0, 1.0), nx=8).move_walls({"front": 1.0}), "sides"),
 ])
 def test_bad_input_is_refused(make, match):
     with pytest.raises(ValueError, match=match):
