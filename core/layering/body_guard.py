@@ -6,6 +6,9 @@ through the body."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..geometry.vectors import norms, rows
@@ -16,18 +19,38 @@ from .metrics import crossing_edges
 _HALVINGS = 3
 
 
-def crossing_corners(body_scene, body_vertices, body_edges, vertices, faces, tri, edges, scene=None):
-    """Bool mask over ``vertices``: ends of ``edges`` that pass through the body, and corners of
-    the triangles ``tri`` (face ids) that an edge of the body passes through. ``body_edges``:
-    (pairs, lows, highs), each body edge's ends and its box column by column. ``scene``: a
-    callable giving one over all of ``faces`` at ``vertices``, or None (one over ``tri`` is built)."""
+@dataclass(frozen=True)
+class GuardedBody:
+    """The body as the guard asks it: its RayScene, vertices, and edges as (pairs, lows, highs),
+    each edge's ends and its box column by column."""
+
+    scene: object
+    vertices: np.ndarray
+    edges: tuple
+
+
+@dataclass(frozen=True)
+class Cloth:
+    """A layer's faces and edges (vertex pairs); ``scene``: a callable giving a RayScene over all
+    its faces where the layer lies, or None."""
+
+    faces: np.ndarray
+    edges: np.ndarray
+    scene: Callable | None = None
+
+
+def crossing_corners(body: GuardedBody, cloth: Cloth, vertices, tri, edges):
+    """Bool mask over ``vertices`` (the cloth's, where it lies): ends of ``edges`` that pass through
+    the body, and corners of the triangles ``tri`` (face ids) that an edge of the body passes
+    through (traced on the cloth's scene, or on one built over ``tri``)."""
+    body_vertices, faces, scene = body.vertices, cloth.faces, cloth.scene
     out = np.zeros(len(vertices), dtype=bool)
     if len(edges):
-        out[edges[crossing_edges(vertices, None, body_scene, edges=edges)].ravel()] = True
+        out[edges[crossing_edges(vertices, None, body.scene, edges=edges)].ravel()] = True
     if not len(tri):
         return out
     # only body edges whose box meets the triangles' box can pass through them
-    pairs, edge_lo, edge_hi = body_edges
+    pairs, edge_lo, edge_hi = body.edges
     used = np.zeros(len(vertices), dtype=bool)  # a mask, not a unique: a sort of most of the layer's corners
     used[faces[tri].ravel()] = True
     lo = [float(vertices[used, axis].min()) for axis in range(3)]
@@ -59,17 +82,17 @@ def crossing_corners(body_scene, body_vertices, body_edges, vertices, faces, tri
     return out
 
 
-def back_off(body_scene, body_vertices, body_edges, before, after, faces, edges, clearance, scene=None):
-    """``after`` (a layer's vertices once moved, ``before`` as they came; ``edges`` its edges as
-    vertex pairs) with the moves that put cloth through the body taken back, halving them
-    first. ``clearance``: a lower bound on each vertex's distance from the body at ``after``
-    (inf inside it). ``scene``: a callable giving a RayScene over ``faces`` at ``after``, asked
-    only if a triangle needs it.
+def back_off(body: GuardedBody, cloth: Cloth, before, after, clearance):
+    """``after`` (a layer's vertices once moved, ``before`` as they came) with the moves that put
+    cloth through the body taken back, halving them first. ``clearance``: a lower bound on each
+    vertex's distance from the body at ``after`` (inf inside it). The cloth's scene (over it at
+    ``after``) is asked only if a triangle needs it.
     Returns (vertices, how many went back).
 
     Only what a move touched and what is near enough to the body is asked: an edge meeting
     the body at x has its ends |a - x| and |b - x| from it, together its length; a triangle
     meeting it has every corner within its longest edge of x."""
+    faces, edges = cloth.faces, cloth.edges
     move = norms(after - before)
     moved = move > 0
     if not moved.any():
@@ -87,8 +110,7 @@ def back_off(body_scene, body_vertices, body_edges, before, after, faces, edges,
     keep = np.ones(len(out))
     went_back = np.zeros(len(out), dtype=bool)
     for step in range(_HALVINGS + 1):
-        bad = crossing_corners(body_scene, body_vertices, body_edges, out, faces, tri, e,
-                               scene if step == 0 else None) & moved
+        bad = crossing_corners(body, cloth if step == 0 else Cloth(faces, edges), out, tri, e) & moved
         if not bad.any():
             break
         keep[bad] = 0.0 if step == _HALVINGS else 0.5 * keep[bad]
@@ -107,8 +129,9 @@ def keep_out_of_body(stack, k) -> None:
     bounds no distance from below, so there every moved triangle is asked. The layer's scene
     serves the layers under it next: built here, it is not built twice."""
     near = np.zeros(len(stack.verts[k])) if stack.params.correspondence[k] is not None else stack.clearance[k]
-    kept_out, n_back = back_off(stack.body.scene, stack.body_vertices, stack.body.edges, stack.rest[k], stack.verts[k],
-                                stack.faces[k], stack.edges[k], near, stack.scenes[k].full)
+    body = GuardedBody(stack.body.scene, stack.body_vertices, stack.body.edges)
+    kept_out, n_back = back_off(body, Cloth(stack.faces[k], stack.edges[k], stack.scenes[k].full), stack.rest[k],
+                                stack.verts[k], near)
     if n_back:
         stack.moved(k, kept_out)
         stack.backed_off += n_back

@@ -33,6 +33,8 @@ accelerates 2.5 mm (p99). Two rules keep it as smooth as the cloth:
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..geometry.vectors import cross, norms, rows, unit
@@ -108,11 +110,22 @@ def held_hidden(crossing, previous_removed, previous_clear, previous_shown):
     return removed, clear, shown
 
 
-def eased(vertices, posed, k, history: History, offset: float, binding, body_normals, body_faces):
-    """Layer k's resolved ``vertices`` (posed at ``posed``; ``binding`` their BodyCorrespondence,
-    ``body_normals`` the body's vertex normals this frame) with the correction's change from the
+@dataclass(frozen=True)
+class BodyNow:
+    """The body under a layer this frame: the layer's BodyCorrespondence (``binding``), and the
+    body's vertex normals and faces."""
+
+    binding: object
+    normals: np.ndarray
+    faces: np.ndarray
+
+
+def eased(vertices, posed, k, history: History, offset: float, body: BodyNow):
+    """Layer k's resolved ``vertices`` (posed at ``posed``) with the correction's change from the
     constant-velocity prediction bounded (module docstring), and how many vertices were bounded;
     (None, 0) where none is."""
+    binding, body_normals, body_faces = body.binding, body.normals, body.faces
+
     def normal_at(normals):  # the body's normal at each point's body point, in those normals
         return unit(np.einsum("ij,ijk->ik", binding.bary, rows(normals, rows(body_faces, binding.triangle))))
 

@@ -19,14 +19,14 @@ from .body_facts import body_facts
 from .body_guard import keep_out_of_body
 from .body_lift import lift_off_body
 from .boundary_pass import tuck_under_hems
-from .frame_coherence import History, eased, held_hidden
+from .frame_coherence import BodyNow, History, eased, held_hidden
 from .garment_prep import GarmentPrep
 from .hidden_faces import crossing_faces
 from .layer_stack import LayerStack
 from .parameters import LayeringParameters, check_known, inside_out, read_meshes
 from .probes import probe_reach, widened
 from .push_behind import push_behind
-from .result import LayeringResult
+from .result import FoundOnBody, LayeringResult
 from .stretch_relax import MAX_TORN, relax_stretch, shorten_torn
 
 
@@ -122,10 +122,10 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
         kept_faces = stack.faces[i][~removed[i]] if removed[i].any() else stack.faces[i].copy()
         out.append(trimesh.Trimesh(stack.verts[i], kept_faces, process=False, validate=False))
     timings["total_s"] = time.perf_counter() - t_start
-    result = LayeringResult(out, moved, removed, prep.traced, prep.normals, prep.corr, prep.vseg, prep.skirts,
-                            {**_stats(stack, prep, reach, removed, timings), "body_inside_out": flipped,
-                             "vertices_eased": n_eased},
-                            prep.complete if len(prep.active) < len(garr) else None)
+    found = FoundOnBody(prep.traced, prep.normals, prep.corr, prep.vseg, prep.skirts,
+                        prep.complete if len(prep.active) < len(garr) else None)
+    result = LayeringResult(out, moved, removed, {**_stats(stack, prep, reach, removed, timings),
+                                                  "body_inside_out": flipped, "vertices_eased": n_eased}, found)
     # what the next frame carries on from (playback, frame bakes)
     result.frames_clear, result.frames_shown = clear, shown
     result.lifts = lifts
@@ -176,8 +176,8 @@ def _ease(stack, garr, prep, previous, offset, body_turn) -> int:
         return 0
     count = 0
     for k in stack.active:
-        smoothed, n = eased(stack.verts[k], garr[k][0], k, previous.history, offset, prep.corr[k], body_turn,
-                            stack.body.faces)
+        smoothed, n = eased(stack.verts[k], garr[k][0], k, previous.history, offset,
+                            BodyNow(prep.corr[k], body_turn, stack.body.faces))
         if n:
             count += n
             stack.moved(k, smoothed)

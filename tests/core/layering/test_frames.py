@@ -278,7 +278,7 @@ def test_a_lift_that_turns_with_the_cloth_eases_along_the_cloth_not_across_it():
     from scipy.spatial.transform import Rotation
 
     from core.geometry.normals import vertex_normals
-    from core.layering.frame_coherence import JERK, History, eased
+    from core.layering.frame_coherence import JERK, BodyNow, History, eased
 
     ring = np.array([[np.cos(t), np.sin(t), 0.0] for t in np.linspace(0, 2 * np.pi, 8, endpoint=False)]) * 0.02
     rest = np.vstack([[0.0, 0.0, 0.0], ring])
@@ -291,7 +291,7 @@ def test_a_lift_that_turns_with_the_cloth_eases_along_the_cloth_not_across_it():
         body_normals = vertex_normals(posed, faces)  # the cloth lies on this patch of body
         resolved = posed + lift * body_normals[0]
         if history is not None:
-            out, count = eased(resolved, posed, 0, history, offset, on, body_normals, faces)
+            out, count = eased(resolved, posed, 0, history, offset, BodyNow(on, body_normals, faces))
             resolved = out if count else resolved
         history = History([resolved - posed], [posed], body_normals, history)
     d = resolved[0] - posed[0]
