@@ -81,8 +81,8 @@ def add(context, size=0.3, segments=48, tentacles=16, tentacle_length=1.5, velum
     """The bell (mesh), its veins and tentacles (curves, parented to it) at the 3D cursor."""
     shape = BellShape()
     scale = size / shape.diameter
-    model = bell3d.build(shape, segments=segments, velum=velum, veins=veins, tentacles=tentacles,
-                         tentacle_length=tentacle_length)
+    model = bell3d.build(shape, bell3d.Anatomy(segments=segments, velum=velum, veins=veins, tentacles=tentacles,
+                                               tentacle_length=tentacle_length))
     col = context.collection
     mesh = bpy.data.meshes.new("Jellyfish")
     fill_mesh(mesh, model.verts * scale, model.faces)

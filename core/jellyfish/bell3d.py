@@ -88,11 +88,30 @@ class BellModel:
     tentacles: list  # polylines (m, 3) hanging from the margin
 
 
-def build(shape: BellShape, segments=48, per_curve=16, velum=0.12, veins=8, tentacles=16, tentacle_length=1.5,
-          tentacle_points=24, sway=0.12, seed=0) -> BellModel:
-    """The bell (closed), an inward velum ring at the margin, radial canals on the
-    subumbrella and tentacles ``tentacle_length`` diameters long, in the shape's units. The
-    tentacles sway sideways by up to ``sway`` radii at their ends, each in its own phase."""
+@dataclass(frozen=True)
+class Anatomy:
+    """What a 3D jellyfish is made of: ``segments`` round the axis and ``per_curve`` points up its
+    profile; a velum ring ``velum`` radii wide (0: none); ``veins`` radial canals; ``tentacles``
+    ``tentacle_length`` diameters long, of ``tentacle_points`` points, swaying sideways by up to
+    ``sway`` radii at their ends, each in its own phase (from ``seed``)."""
+
+    segments: int = 48
+    per_curve: int = 16
+    velum: float = 0.12
+    veins: int = 8
+    tentacles: int = 16
+    tentacle_length: float = 1.5
+    tentacle_points: int = 24
+    sway: float = 0.12
+    seed: int = 0
+
+
+def build(shape: BellShape, anatomy: Anatomy = Anatomy()) -> BellModel:
+    """The bell (closed), an inward velum ring at the margin, radial canals on the subumbrella and
+    tentacles, in the shape's units."""
+    segments, per_curve, velum, veins = anatomy.segments, anatomy.per_curve, anatomy.velum, anatomy.veins
+    tentacles, tentacle_length, tentacle_points = anatomy.tentacles, anatomy.tentacle_length, anatomy.tentacle_points
+    sway, seed = anatomy.sway, anatomy.seed
     a = 0.5 * shape.diameter
     sec, margin = profile(shape, per_curve)
     verts, faces = revolve(sec, segments)

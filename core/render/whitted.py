@@ -210,7 +210,7 @@ class _Whitted:
         if once or (passes[0] is None and passes[1] is None):
             return scene.first_visible(rays.o, rays.d, layered=layered, min_dist=leaving, scaled=True,
                                        unseen=self.settings.unseen if once else None)
-        return _first_visible_by_kind(scene, rays.o, rays.d, layered, leaving, rays.kind, passes)
+        return _first_visible_by_kind(scene, rays, leaving, layered, passes)
 
     def _shade(self, rays, obj, face, bary, t, colour, once):
         """Add what the hits show to ``colour``; the reflected and refracted rays they send on (None
@@ -270,9 +270,10 @@ class _Whitted:
         return albedo_hit
 
 
-def _first_visible_by_kind(scene, o, d, layered, leaving, kind, passes):
+def _first_visible_by_kind(scene, rays, leaving, layered, passes):
     """first_visible of reflected (kind 0) and refracted (kind 1) rays, each kind passing through
     its own objects (``passes``: a mask per kind, or None)."""
+    o, d, kind = rays.o, rays.d, rays.kind
     n = len(o)
     out = Visible(np.full(n, np.inf), np.full(n, -1), np.full(n, -1), np.zeros((n, 2)), np.zeros(n, bool), 0)
     for k, mask in enumerate(passes):

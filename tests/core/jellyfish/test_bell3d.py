@@ -21,14 +21,14 @@ def test_the_turned_bell_converges_to_the_analytic_shell_volume_at_second_order(
     assert bell3d.exact_volume(SHAPE) == pytest.approx(exact, rel=1e-15)
     errors = []
     for n in (16, 32, 64):
-        v, f = _bell(bell3d.build(SHAPE, segments=2 * n, per_curve=n, velum=0))
+        v, f = _bell(bell3d.build(SHAPE, bell3d.Anatomy(segments=2 * n, per_curve=n, velum=0)))
         errors.append(abs(bell3d.volume(v, f) / exact - 1))
     assert errors[-1] < 2e-3
     assert 3.0 < errors[0] / errors[1] < 5.0 and 3.0 < errors[1] / errors[2] < 5.0
 
 
 def test_the_bell_is_closed_and_outward_and_its_parts_hang_where_they_should():
-    model = bell3d.build(SHAPE, segments=24, per_curve=10, veins=5, tentacles=7, tentacle_length=2.0)
+    model = bell3d.build(SHAPE, bell3d.Anatomy(segments=24, per_curve=10, veins=5, tentacles=7, tentacle_length=2.0))
     v, f = _bell(model)
     edges = {}
     for face in f:
@@ -67,7 +67,7 @@ def test_the_stroke_field_moves_the_controls_as_in_2d_and_is_symmetric_about_the
 @pytest.mark.parametrize("scale", [1e-3, 1.0, 1e3])
 def test_a_normal_offset_gives_back_the_rest_volume_through_the_contraction(scale):
     cfg = default_config()
-    v, f = _bell(bell3d.build(SHAPE, segments=32, per_curve=12, velum=0))
+    v, f = _bell(bell3d.build(SHAPE, bell3d.Anatomy(segments=32, per_curve=12, velum=0)))
     field = bell3d.StrokeField(SHAPE, default_creature(cfg), 0.5 * cfg.box)
     normals = bell3d.vertex_normals(v, f)
     rest = bell3d.volume(v * scale, f)
