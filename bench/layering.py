@@ -14,19 +14,24 @@ import argparse
 import time
 
 import numpy as np
+import trimesh
 
 from bench.report import machine, table, write_section
 from core.geometry.normals import vertex_normals
 from core.layering import metrics, resolve_layers
 from core.layering.body_facts import forget_garments
-from tests.core.layered_cases import body_tube, mesh, noisy_sleeves
+from sample_scenes.shapes import sleeves, tube, tube_body
 
 RADII = (0.163, 0.166, 0.169, 0.172)
 
 
+def mesh(v, f):
+    return trimesh.Trimesh(np.asarray(v, float), np.asarray(f), process=False)
+
+
 def scene(n):
-    body = body_tube(n=n)
-    return body, noisy_sleeves(radii=RADII, noise=0.01, n=n, z0_step=0.04)
+    body = mesh(*tube_body(n))
+    return body, [mesh(v, f) for v, f in sleeves(RADII, 0.01, 0, n, z0_step=0.04, stagger=0.003)]
 
 
 def measure(body, garments, corrected, normals, seconds, removed=None):
@@ -143,10 +148,9 @@ def main(argv=None):
         print(var_rows[-1], flush=True)
 
     # --- a scene that needs nothing
-    from sample_scenes.shapes import tube
 
     n_big = 224 if not args.quick else 100
-    body = body_tube(n=n_big)
+    body = mesh(*tube_body(n_big))
     calm = [mesh(*tube(0.16 + 0.01 * k, 0.05, 0.55 - 0.01 * k, n_around=n_big, n_along=n_big // 2)) for k in range(4)]
     run_resolve(body, calm)  # the body's facts (normals, radii, search tree) are kept for the next calls
 

@@ -40,3 +40,20 @@ def tube(radius, z0, z1, n_around=64, n_along=32, noise=0.0, rng=None, capped=Fa
             np.stack([np.full(n_around, top), ring1, (n_along - 1) * n_around + nxt], -1),
         ])
     return v, faces
+
+
+BODY_RADIUS = 0.15  # the tubes case's body
+
+
+def tube_body(n=64, height=0.6, radius=BODY_RADIUS):
+    """The tubes case's body: a capped tube, ``n`` around. Returns (vertices, faces)."""
+    return tube(radius, 0.0, height, n_around=n, n_along=n // 2, capped=True)
+
+
+def sleeves(radii, noise, seed=0, n=64, z0_step=0.08, stagger=0.0):
+    """The tubes case's noisy open sleeves over its body (a capped tube of BODY_RADIUS): sleeve k of
+    ``radii`` from ``z0_step`` x (k + 1) up to 0.55 less ``stagger`` x k, its noise never within
+    6 mm of the body, one generator (``seed``) for them all. Returns [(vertices, faces), ...]."""
+    rng = np.random.default_rng(seed)
+    return [tube(r, z0_step * (k + 1), 0.55 - stagger * k, n_around=n, n_along=n // 2, noise=noise, rng=rng,
+                 min_radius=BODY_RADIUS + 0.006) for k, r in enumerate(radii)]

@@ -4,32 +4,29 @@ The smallest scene with the layering problem: each sleeve alone clears the body,
 together they interpenetrate. Used by the demo until the mannequin scenes land.
 """
 
-import numpy as np
 
 from ..addon.io import mesh_io
 from . import shapes, studio
 
-BODY_RADIUS = 0.15
 LAYERS = (
-    # name, radius_m, noise_m, colour
-    ("Shirt", 0.165, 0.012, (0.80, 0.15, 0.12, 1.0)),
-    ("Jacket", 0.170, 0.012, (0.10, 0.35, 0.75, 1.0)),
+    # name, radius_m, colour
+    ("Shirt", 0.165, (0.80, 0.15, 0.12, 1.0)),
+    ("Jacket", 0.170, (0.10, 0.35, 0.75, 1.0)),
 )
+NOISE = 0.012  # m
 
 
 def build(seed: int = 0, resolution: int = 96):
     """Replace the current scene's contents with the tubes scene; returns (body, garments)."""
-    rng = np.random.default_rng(seed)
     scene = studio.empty_scene("Tubes")
     col = scene.collection
-    bv, bf = shapes.tube(BODY_RADIUS, 0.0, 0.6, n_around=resolution, n_along=resolution // 2, capped=True)
+    bv, bf = shapes.tube_body(resolution)
     body = mesh_io.new_mesh_object("Body", bv, bf, col)
     body.deformrt.role, body.deformrt.layer = "BODY", 0
     studio.material(body, "Skin", (0.85, 0.65, 0.5, 1.0))
     garments = []
-    for layer, (name, radius, noise, colour) in enumerate(LAYERS, start=1):
-        gv, gf = shapes.tube(radius, 0.08 * layer, 0.55, n_around=resolution, n_along=resolution // 2,
-                             noise=noise, rng=rng, min_radius=BODY_RADIUS + 0.006)
+    made = shapes.sleeves([radius for _, radius, _ in LAYERS], NOISE, seed, resolution)
+    for layer, ((name, _, colour), (gv, gf)) in enumerate(zip(LAYERS, made, strict=True), start=1):
         obj = mesh_io.new_mesh_object(name, gv, gf, col)
         obj.deformrt.role, obj.deformrt.layer = "GARMENT", layer
         studio.material(obj, name, colour)

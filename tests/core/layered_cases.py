@@ -3,7 +3,7 @@
 import numpy as np
 import trimesh
 
-from sample_scenes.shapes import tube
+from sample_scenes.shapes import sleeves, tube, tube_body
 
 
 def mesh(v, f):
@@ -11,15 +11,12 @@ def mesh(v, f):
 
 
 def body_tube(radius=0.15, height=0.6, n=64):
-    return mesh(*tube(radius, 0.0, height, n_around=n, n_along=n // 2, capped=True))
+    return mesh(*tube_body(n, height, radius))
 
 
-def noisy_sleeves(radii=(0.165, 0.17), noise=0.012, seed=0, n=64, body_radius=0.15, z0_step=0.08):
-    rng = np.random.default_rng(seed)
+def noisy_sleeves(radii=(0.165, 0.17), noise=0.012, seed=0, n=64, z0_step=0.08):
     # tops staggered by 3 mm: exactly coincident rims make grazing rays whose answer is arbitrary
-    return [mesh(*tube(r, z0_step * (k + 1), 0.55 - 0.003 * k, n_around=n, n_along=n // 2, noise=noise, rng=rng,
-                       min_radius=body_radius + 0.006))
-            for k, r in enumerate(radii)]
+    return [mesh(v, f) for v, f in sleeves(radii, noise, seed, n, z0_step, stagger=0.003)]
 
 
 def sheet(size=1.0, n=40, z=0.0, height_fn=None):
