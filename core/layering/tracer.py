@@ -250,9 +250,10 @@ def trace_layers(probes: Probes, layer_scenes, layers, rules: HitRules = HitRule
         out.rays += asked
         if meets is not None:
             plan = [(k, idx[meets[idx]], lo, hi) for k, idx, lo, hi in plan]
+    tracing = _Tracing(probes, allowed, rules, out)
     for k, idx, lo, hi in plan:
         if len(idx):
-            _trace_layer(probes, layer_scenes[k], k, idx, (lo, hi), allowed, rules, out)
+            tracing.layer(layer_scenes[k], k, idx, (lo, hi))
     return out
 
 
@@ -286,61 +287,69 @@ def _plan(probes, segs, layer_scenes, layers):
     return allowed, plan
 
 
-def _trace_layer(probes, scenes, k, idx, bounds, allowed, rules, out: Traced) -> None:
-    """Rays ``idx`` against layer k's SegmentScenes (``bounds`` the box of their reach), past
-    every hit that does not count, keeping in ``out`` each one's best hit so far."""
-    max_dist = probes.max_dist
-    if rules.cull:
-        found = scenes.get_near(np.flatnonzero(allowed[idx].any(0)[scenes.face_segment]), probes.origins[idx],
-                                float(max_dist[idx].max()))
-    else:
-        found = scenes.full(), None
-    if found is None:
-        return
-    scene, ids = found
-    scene.commit()  # the BVH build is not tracing
-    o, ray_dir, length = rows(probes.origins, idx), rows(probes.directions, idx), max_dist[idx]
-    if rules.farthest:
-        # the farthest hit within reach is the first met coming back from the far end
-        # (a fold of one layer has two sheets in reach: the vertex goes behind both)
-        o, ray_dir = o + ray_dir * length[:, None], -ray_dir
-    step = step_past_hit(length, *bounds)
-    live, t_min = slice(None), np.zeros(len(idx))
-    for _ in range(_PASS_ROUNDS):
-        t0 = time.perf_counter()
-        hits = scene.intersect(o[live], ray_dir[live], max_dist=length[live],
-                               min_dist=None if isinstance(live, slice) else t_min[live])
-        out.seconds += time.perf_counter() - t0
-        out.rays += len(hits.t)
-        live = np.arange(len(idx)) if isinstance(live, slice) else live
-        live, t_hit, face = live[hits.hit], hits.t[hits.hit], hits.face[hits.hit]
-        if ids is not None:
-            face = ids[face]
-        ok = allowed[idx[live], scenes.face_segment[face]]
-        corners = rows(scenes.faces, face) if rules.creases is not None or rules.facing is not None else None
-        if rules.creases is not None and rules.creases[0][k] is not None and len(live):
-            ok &= ~on_edges(scenes.vertices, corners, rules.creases[0][k],
-                            o[live] + ray_dir[live] * t_hit[:, None], rules.creases[1][idx[live]])
-        if rules.facing is not None and len(live):
-            # a triangle the probe runs along (a Solidify rim, a fold seen edge-on) is not in
-            # front of it: where along the rim the probe meets it is round-off, by millimetres
-            ok &= ~grazing(scenes.vertices, corners, ray_dir[live])
-            u, w = hits.bary[hits.hit, 0], hits.bary[hits.hit, 1]
-            nk = rows(rules.facing[0][k], corners)
-            n_hit = (1 - u - w)[:, None] * nk[:, 0] + u[:, None] * nk[:, 1] + w[:, None] * nk[:, 2]
-            ok &= np.einsum("ij,ij->i", n_hit, rows(rules.facing[1], idx[live])) > 0
-        t_ray = length[live] - t_hit if rules.farthest else t_hit
-        better = ok & ((t_ray > out.t[idx[live]]) if rules.farthest else (t_ray < out.t[idx[live]]))
-        sel = idx[live[better]]
-        out.t[sel] = t_ray[better]
-        out.layer[sel] = k
-        out.face[sel] = face[better]
-        # a hit facing the other way (the far side of a skirt) or on a part the ray may not
-        # meet hides nothing: look past it
-        t_min[live] = t_hit + step[live]
-        live = live[~ok]
-        if not len(live):
-            break
+class _Tracing:
+    """One trace_layers call: its probes, the face segments each may meet, its rules, and the best
+    hits found so far (``out``)."""
+
+    def __init__(self, probes, allowed, rules, out: Traced):
+        self.probes, self.allowed, self.rules, self.out = probes, allowed, rules, out
+
+    def layer(self, scenes, k, idx, bounds) -> None:
+        """Rays ``idx`` against layer k's SegmentScenes (``bounds`` the box of their reach), past
+        every hit that does not count, keeping in ``out`` each one's best hit so far."""
+        probes, allowed, rules, out = self.probes, self.allowed, self.rules, self.out
+        max_dist = probes.max_dist
+        if rules.cull:
+            found = scenes.get_near(np.flatnonzero(allowed[idx].any(0)[scenes.face_segment]), probes.origins[idx],
+                                    float(max_dist[idx].max()))
+        else:
+            found = scenes.full(), None
+        if found is None:
+            return
+        scene, ids = found
+        scene.commit()  # the BVH build is not tracing
+        o, ray_dir, length = rows(probes.origins, idx), rows(probes.directions, idx), max_dist[idx]
+        if rules.farthest:
+            # the farthest hit within reach is the first met coming back from the far end
+            # (a fold of one layer has two sheets in reach: the vertex goes behind both)
+            o, ray_dir = o + ray_dir * length[:, None], -ray_dir
+        step = step_past_hit(length, *bounds)
+        live, t_min = slice(None), np.zeros(len(idx))
+        for _ in range(_PASS_ROUNDS):
+            t0 = time.perf_counter()
+            hits = scene.intersect(o[live], ray_dir[live], max_dist=length[live],
+                                   min_dist=None if isinstance(live, slice) else t_min[live])
+            out.seconds += time.perf_counter() - t0
+            out.rays += len(hits.t)
+            live = np.arange(len(idx)) if isinstance(live, slice) else live
+            live, t_hit, face = live[hits.hit], hits.t[hits.hit], hits.face[hits.hit]
+            if ids is not None:
+                face = ids[face]
+            ok = allowed[idx[live], scenes.face_segment[face]]
+            corners = rows(scenes.faces, face) if rules.creases is not None or rules.facing is not None else None
+            if rules.creases is not None and rules.creases[0][k] is not None and len(live):
+                ok &= ~on_edges(scenes.vertices, corners, rules.creases[0][k],
+                                o[live] + ray_dir[live] * t_hit[:, None], rules.creases[1][idx[live]])
+            if rules.facing is not None and len(live):
+                # a triangle the probe runs along (a Solidify rim, a fold seen edge-on) is not in
+                # front of it: where along the rim the probe meets it is round-off, by millimetres
+                ok &= ~grazing(scenes.vertices, corners, ray_dir[live])
+                u, w = hits.bary[hits.hit, 0], hits.bary[hits.hit, 1]
+                nk = rows(rules.facing[0][k], corners)
+                n_hit = (1 - u - w)[:, None] * nk[:, 0] + u[:, None] * nk[:, 1] + w[:, None] * nk[:, 2]
+                ok &= np.einsum("ij,ij->i", n_hit, rows(rules.facing[1], idx[live])) > 0
+            t_ray = length[live] - t_hit if rules.farthest else t_hit
+            better = ok & ((t_ray > out.t[idx[live]]) if rules.farthest else (t_ray < out.t[idx[live]]))
+            sel = idx[live[better]]
+            out.t[sel] = t_ray[better]
+            out.layer[sel] = k
+            out.face[sel] = face[better]
+            # a hit facing the other way (the far side of a skirt) or on a part the ray may not
+            # meet hides nothing: look past it
+            t_min[live] = t_hit + step[live]
+            live = live[~ok]
+            if not len(live):
+                break
 
 
 # Rays asked first whether they meet anything at all, to learn whether that test pays

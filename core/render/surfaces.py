@@ -139,13 +139,23 @@ def shading_normal(scene, obj, face, bary, corners=None):
     return out / np.maximum(length, 1e-300)[:, None]
 
 
-def shadow_origin(scene, obj, face, bary, p, side, corner_normals=None):
-    """Where shadow rays should leave a smooth-shaded hit: the point moved out to the smooth
-    surface its vertex normals (or its face's ``corner_normals``) describe (Hanika, "Hacking
+@dataclass(frozen=True)
+class SurfaceHits:
+    """Where rays met a LayeredScene: the object, the face within it, (u, v) on the face."""
+
+    obj: np.ndarray
+    face: np.ndarray
+    bary: np.ndarray
+
+
+def shadow_origin(scene, hits: SurfaceHits, p, side, corner_normals=None):
+    """Where shadow rays should leave smooth-shaded hits (at ``p``): each point moved out to the
+    smooth surface its vertex normals (or its face's ``corner_normals``) describe (Hanika, "Hacking
     the shadow terminator", Ray Tracing Gems II ch. 4), so a coarse or folded triangle does not
     shadow itself where its shading says it is lit. ``side``: +1 on the side the normals point
     to, -1 on the other."""
-    glob = scene.first_face[obj] + face
+    bary = hits.bary
+    glob = scene.first_face[hits.obj] + hits.face
     corners = rows(scene.scene.faces, glob)
     weights = (1 - bary[:, 0] - bary[:, 1], bary[:, 0], bary[:, 1])
     # p lifted out of each corner's tangent plane (normal side * n) where it lies below it,

@@ -15,7 +15,7 @@ from ..geometry.vectors import norms, rows
 from ..rays.scene import unit_rays
 from .layered_trace import LayeredScene, Visible
 from .lighting import LitPoints, Shading, direct_light
-from .surfaces import Surfaces, bilinear, corner_blend, shading_normal, shadow_origin
+from .surfaces import SurfaceHits, Surfaces, bilinear, corner_blend, shading_normal, shadow_origin
 
 LUMA = np.array([0.299, 0.587, 0.114])  # NTSC luminance weights
 
@@ -196,7 +196,8 @@ class _Whitted:
                 break
             keep = np.flatnonzero(hit)
             rays = rays.take(keep)
-            rays = self._shade(rays, *(rows(x, keep) for x in (vis.obj, vis.face, vis.bary, vis.t)), colour, once)
+            rays = self._shade(rays, SurfaceHits(*(rows(x, keep) for x in (vis.obj, vis.face, vis.bary))),
+                               rows(vis.t, keep), colour, once)
             if rays is None:
                 break
             absorbing = bool(rays.sigma.any())
@@ -212,9 +213,10 @@ class _Whitted:
                                        unseen=self.settings.unseen if once else None)
         return _first_visible_by_kind(scene, rays, leaving, layered, passes)
 
-    def _shade(self, rays, obj, face, bary, t, colour, once):
-        """Add what the hits show to ``colour``; the reflected and refracted rays they send on (None
-        when none goes on)."""
+    def _shade(self, rays, hits: SurfaceHits, t, colour, once):
+        """Add what the hits (``t`` along the rays) show to ``colour``; the reflected and refracted
+        rays they send on (None when none goes on)."""
+        obj, face, bary = hits.obj, hits.face, hits.bary
         scene, props, corners = self.scene, self.props, self.surfaces.corner_normals
         d = rays.d
         p = rays.o + d * t[:, None]
@@ -224,7 +226,7 @@ class _Whitted:
         mat = self.surfaces.face_material[scene.first_face[obj] + face]
         trans, mirror, ior = props["transmission"][mat], props["mirror"][mat], props["ior"][mat]
         local = (1 - trans) * (1 - mirror)
-        start = shadow_origin(scene, obj, face, bary, p, np.where(entering, 1.0, -1.0), corners) + nrm * scene.eps
+        start = shadow_origin(scene, hits, p, np.where(entering, 1.0, -1.0), corners) + nrm * scene.eps
         albedo_hit = self._albedo(mat, obj, face, bary)
         colour_local = direct_light(self.shading, LitPoints(p, start, nrm, d, obj, albedo_hit, props["specular"][mat],
                                                             props["shininess"][mat]))
