@@ -4,7 +4,7 @@ import bpy
 
 from ..addon.jellyfish import animal as jellyfish
 from ..core.jellyfish.keyframes import FrameRange
-from ..core.jellyfish.stroke_search import GOAL_WEIGHTS, optimize
+from ..core.jellyfish.stroke_search import GOAL_WEIGHTS, Running, Search, optimize
 from ..core.jellyfish.swimming import default_config
 from ..core.jellyfish.waters import WATERS as WATER_KINDS
 from .base import BackgroundOperator, DeformRTOperator
@@ -92,9 +92,10 @@ class DEFORMRT_OT_optimize_jellyfish(_NeedsJellyfish, BackgroundOperator, bpy.ty
                                          viscosity=self.viscosity, weights=GOAL_WEIGHTS[self.goal])}
 
     def work(self, job, progress, stop):
-        result = optimize(job["config"], self.method, self.seed, population=job["population"],
-                          generations=self.generations, workers=self.workers or None,
-                          progress=lambda done, total, best: progress(done, total, best=best), stop=stop)
+        search = Search(self.method, self.seed, population=job["population"], generations=self.generations)
+        running = Running(workers=self.workers or None, stop=stop,
+                          progress=lambda done, total, best: progress(done, total, best=best))
+        result = optimize(job["config"], search, running)
         return result
 
     def status_text(self, state) -> str:

@@ -79,10 +79,27 @@ def agreed(fitness, tolerance):
     return spread <= tolerance * max(abs(f.max()), abs(f.min()), 1e-12)
 
 
-def ga_sa(objective, x0, rng, population=10, generations=30, g_offset=5.0, crossover=0.9,
-          mutation=0.2, spread=0.5, tolerance=0.1, stop=None):
+@dataclass(frozen=True)
+class GaSa:
+    """The genetic algorithm with simulated-annealing selection: ``population`` creatures (even),
+    at most ``generations``; the temperature's ``g_offset``, the ``crossover`` and ``mutation``
+    rates, the first population's ``spread`` about the start, and the ``tolerance`` within which
+    an agreeing population stops the search."""
+
+    population: int = 10
+    generations: int = 30
+    g_offset: float = 5.0
+    crossover: float = 0.9
+    mutation: float = 0.2
+    spread: float = 0.5
+    tolerance: float = 0.1
+
+
+def ga_sa(objective, x0, rng, settings: GaSa = GaSa(), stop=None):
     """Maximise ``objective`` over [0, 1]^d from the start point ``x0``: the first population
-    is x0 and random distortions of it (normal, ``spread`` wide, clipped to the cube)."""
+    is x0 and random distortions of it (normal, ``settings.spread`` wide, clipped to the cube)."""
+    population, generations, g_offset = settings.population, settings.generations, settings.g_offset
+    crossover, mutation, spread, tolerance = settings.crossover, settings.mutation, settings.spread, settings.tolerance
     x0 = np.clip(np.asarray(x0, float), 0.0, 1.0)
     if population < 2 or population % 2:
         raise ValueError(f"the population must be an even number >= 2, got {population}")
@@ -157,7 +174,11 @@ def random_search(objective, dim, rng, budget, batch=10, stop=None):
     return track.result(history, "budget")
 
 
-def differential_evolution(objective, dim, rng, budget, population=10, stop=None, penalty=1e3):
+# what an infeasible creature scores in scipy's minimisation (it needs a finite number)
+_INFEASIBLE = 1e3
+
+
+def differential_evolution(objective, dim, rng, budget, population=10, stop=None):
     """scipy's differential evolution (best1bin, deferred updating so a generation is one
     batch) with maxiter set so it spends about ``budget`` evaluations, no polishing."""
     track = _Tracker(objective, stop)
@@ -170,7 +191,7 @@ def differential_evolution(objective, dim, rng, budget, population=10, stop=None
         # scipy hands (dim, S) arrays to a vectorised objective
         f = track(np.asarray(points).T)
         history.append((track.evaluations, track.best_f, _mean(f)))
-        return np.where(np.isfinite(f), -f, penalty)
+        return np.where(np.isfinite(f), -f, _INFEASIBLE)
 
     try:
         _scipy_de(minimise, [(0.0, 1.0)] * dim, popsize=popsize, maxiter=maxiter, rng=rng, polish=False,

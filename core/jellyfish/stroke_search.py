@@ -3,7 +3,8 @@ and scored by its fitness against the default creature's, bred by the genetic al
 simulated annealing (or differential evolution, or at random), in worker processes."""
 
 import time
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -83,21 +84,44 @@ def _evaluate(job):
     return simulate_cycles(space.creature(genes, config), config, config.cycles, scales=scales)
 
 
-def optimize(config: JellyfishConfig | None = None, method="ga-sa", seed=0, population=10, generations=30,
-             budget=None, workers=None, scheduler=None, space: StrokeSpace | None = None, start: Creature | None = None,
-             progress=None, stop=None, **options) -> OptimizeResult:
-    """The creature with the best fitness (eq. 3.14, scaled by the default creature's), each
-    creature swimming ``config.cycles`` cycles from rest.
+@dataclass(frozen=True)
+class Search:
+    """How ``optimize`` searches. ``method``: "ga-sa" (the thesis'; ``population`` creatures, at
+    most ``generations``, stops when the population agrees within 10 %; ``options``: further
+    genetic.GaSa settings), "de" (scipy differential evolution) or "random"; the last two spend
+    ``budget`` evaluations (default what ga-sa may spend at most). Same seed, same result."""
 
-    method: "ga-sa" (the thesis'; ``population`` creatures, at most ``generations``, stops
-    when the population agrees within 10 %), "de" (scipy differential evolution) or "random";
-    the last two spend ``budget`` evaluations (default what ga-sa may spend at most).
-    workers: processes (default every core; 1 runs here); scheduler: a Dask address instead.
-    progress(evaluations, expected, best_fitness) is called as each cycle finishes; stop()
-    is polled, and a stop keeps the best creature so far. Same seed, same result."""
+    method: str = "ga-sa"
+    seed: int = 0
+    population: int = 10
+    generations: int = 30
+    budget: int | None = None
+    options: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Running:
+    """Where ``optimize`` runs: ``workers`` processes (default every core; 1 runs here), or a Dask
+    ``scheduler`` address instead; ``progress(evaluations, expected, best_fitness)`` is called as
+    each cycle finishes; ``stop()`` is polled, and a stop keeps the best creature so far."""
+
+    workers: int | None = None
+    scheduler: str | None = None
+    progress: Callable | None = None
+    stop: Callable | None = None
+
+
+def optimize(config: JellyfishConfig | None = None, search: Search = Search(), running: Running = Running(),
+             space: StrokeSpace | None = None, start: Creature | None = None) -> OptimizeResult:
+    """The creature with the best fitness (eq. 3.14, scaled by the default creature's), each
+    creature swimming ``config.cycles`` cycles from rest, found as ``search`` says, run as
+    ``running`` says; ``start``: the stroke ga-sa starts from (default the default creature's)."""
     from . import genetic
     from .evaluation import Cancelled, Evaluator
 
+    method, seed, population, generations, budget = (search.method, search.seed, search.population,
+                                                     search.generations, search.budget)
+    workers, scheduler, progress, stop = running.workers, running.scheduler, running.progress, running.stop
     config = config or default_config()
     space = space or StrokeSpace()
     if method not in ("ga-sa", "de", "random"):
@@ -134,11 +158,12 @@ def optimize(config: JellyfishConfig | None = None, method="ga-sa", seed=0, popu
 
         if method == "ga-sa":
             x0 = space.genes(start or default_creature(config), config)
-            found = genetic.ga_sa(objective, x0, rng, population, generations, stop=stop, **options)
+            found = genetic.ga_sa(objective, x0, rng, genetic.GaSa(population, generations, **search.options), stop)
         elif method == "de":
-            found = genetic.differential_evolution(objective, space.dim, rng, budget, population, stop=stop, **options)
+            found = genetic.differential_evolution(objective, space.dim, rng, budget, population, stop=stop,
+                                                   **search.options)
         else:
-            found = genetic.random_search(objective, space.dim, rng, budget, population, stop=stop, **options)
+            found = genetic.random_search(objective, space.dim, rng, budget, population, stop=stop, **search.options)
         backend = evaluator.backend
     if best["genes"] is None:
         raise RuntimeError("stopped before any creature was evaluated")

@@ -48,7 +48,7 @@ def test_acceptance_of_worse_children_falls_as_the_temperature_falls_and_better_
 @pytest.mark.parametrize("objective", [sphere, bumpy])
 def test_ga_sa_and_differential_evolution_beat_random_search_on_the_same_budget(objective):
     seeds = range(6)
-    ga = [genetic.ga_sa(objective, np.full(5, 0.5), np.random.default_rng(s), 10, 30) for s in seeds]
+    ga = [genetic.ga_sa(objective, np.full(5, 0.5), np.random.default_rng(s), genetic.GaSa(10, 30)) for s in seeds]
     budget = ga[0].evaluations
     de = [genetic.differential_evolution(objective, 5, np.random.default_rng(s), budget) for s in seeds]
     rs = [genetic.random_search(objective, 5, np.random.default_rng(s), budget) for s in seeds]
@@ -63,17 +63,18 @@ def test_ga_sa_and_differential_evolution_beat_random_search_on_the_same_budget(
 
 
 def test_the_same_seed_gives_the_same_search_and_another_seed_another():
-    a = genetic.ga_sa(bumpy, np.full(5, 0.5), np.random.default_rng(7), 6, 5)
-    b = genetic.ga_sa(bumpy, np.full(5, 0.5), np.random.default_rng(7), 6, 5)
-    c = genetic.ga_sa(bumpy, np.full(5, 0.5), np.random.default_rng(8), 6, 5)
+    a = genetic.ga_sa(bumpy, np.full(5, 0.5), np.random.default_rng(7), genetic.GaSa(6, 5))
+    b = genetic.ga_sa(bumpy, np.full(5, 0.5), np.random.default_rng(7), genetic.GaSa(6, 5))
+    c = genetic.ga_sa(bumpy, np.full(5, 0.5), np.random.default_rng(8), genetic.GaSa(6, 5))
     assert np.array_equal(a.best_x, b.best_x) and a.history == b.history
     assert not np.array_equal(a.best_x, c.best_x)
 
 
 def test_a_population_that_agrees_within_ten_percent_stops():
-    flat = genetic.ga_sa(lambda pts: [1.0 + 0.01 * p[0] for p in pts], np.full(3, 0.5), np.random.default_rng(0), 6, 30)
+    flat = genetic.ga_sa(lambda pts: [1.0 + 0.01 * p[0] for p in pts], np.full(3, 0.5), np.random.default_rng(0),
+                         genetic.GaSa(6, 30))
     assert flat.stopped == "agreement" and flat.evaluations == 6
-    steep = genetic.ga_sa(sphere, np.full(5, 0.5), np.random.default_rng(0), 6, 3)
+    steep = genetic.ga_sa(sphere, np.full(5, 0.5), np.random.default_rng(0), genetic.GaSa(6, 3))
     assert steep.stopped == "generations" and steep.evaluations == 6 * 4
 
 
@@ -84,7 +85,8 @@ def test_a_stop_keeps_the_best_of_what_was_evaluated():
         seen.extend(points)
         return sphere(points)
 
-    for run in (lambda s: genetic.ga_sa(objective, np.full(5, 0.5), np.random.default_rng(0), 10, 30, stop=s),
+    ga = genetic.GaSa(10, 30)
+    for run in (lambda s: genetic.ga_sa(objective, np.full(5, 0.5), np.random.default_rng(0), ga, stop=s),
                 lambda s: genetic.differential_evolution(objective, 5, np.random.default_rng(0), 300, stop=s),
                 lambda s: genetic.random_search(objective, 5, np.random.default_rng(0), 300, stop=s)):
         seen.clear()
@@ -96,9 +98,9 @@ def test_a_stop_keeps_the_best_of_what_was_evaluated():
 def test_bad_input_is_refused_clearly():
     rng = np.random.default_rng(0)
     with pytest.raises(ValueError, match="even"):
-        genetic.ga_sa(sphere, np.full(5, 0.5), rng, population=5)
+        genetic.ga_sa(sphere, np.full(5, 0.5), rng, genetic.GaSa(population=5))
     with pytest.raises(ValueError, match="generations"):
-        genetic.ga_sa(sphere, np.full(5, 0.5), rng, generations=0)
+        genetic.ga_sa(sphere, np.full(5, 0.5), rng, genetic.GaSa(generations=0))
     with pytest.raises(ValueError, match="finite fitness"):
         genetic.random_search(lambda pts: [np.nan] * len(pts), 2, rng, 4)
     with pytest.raises(ValueError, match="finite fitness"):
