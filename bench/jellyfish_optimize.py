@@ -33,7 +33,7 @@ def main():
     cfg = default_config(particles=60)
     rows, runs = [], {}
     for method in ("ga-sa", "de", "random"):
-        runs[method] = [optimize(cfg, Search(method, s, POPULATION, GENERATIONS, BUDGET))
+        runs[method] = [optimize(cfg, search=Search(method, s, POPULATION, GENERATIONS, BUDGET))
                         for s in SEEDS]
         rs = runs[method]
         cells = [f"{np.median([best_at(r.history, n) for r in rs]):+.3f}" for n in CHECKPOINTS]
@@ -41,13 +41,13 @@ def main():
         rows.append([method, *cells, f"{np.median([r.evaluations for r in rs]):.0f}",
                      f"{np.median([r.seconds for r in rs]):.1f}", f"{top.cycle.path_m / cfg.bell.diameter:.4f}"])
         print(rows[-1], flush=True)
-    serial = optimize(cfg, Search("ga-sa", 0, POPULATION, GENERATIONS), Running(workers=1))
+    serial = optimize(cfg, search=Search("ga-sa", 0, POPULATION, GENERATIONS), running=Running(workers=1))
     pooled = runs["ga-sa"][0]
     assert serial.creature.destinations.tolist() == pooled.creature.destinations.tolist()
 
     seed_cfg = default_config()
     t0 = time.perf_counter()
-    full = optimize(seed_cfg, Search("ga-sa", 0, POPULATION, GENERATIONS))
+    full = optimize(seed_cfg, search=Search("ga-sa", 0, POPULATION, GENERATIONS))
     full_s = time.perf_counter() - t0
     ref = simulate_cycle(default_creature(seed_cfg), seed_cfg, scales=full.scales)
     print(full.fitness, full.cycle.path_m, full_s, flush=True)

@@ -95,7 +95,7 @@ class DEFORMRT_OT_optimize_jellyfish(_NeedsJellyfish, BackgroundOperator, bpy.ty
         search = Search(self.method, self.seed, population=job["population"], generations=self.generations)
         running = Running(workers=self.workers or None, stop=stop,
                           progress=lambda done, total, best: progress(done, total, best=best))
-        result = optimize(job["config"], search, running)
+        result = optimize(job["config"], search=search, running=running)
         return result
 
     def status_text(self, state) -> str:

@@ -4,7 +4,7 @@ simulated annealing (or differential evolution, or at random), in worker process
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -89,7 +89,9 @@ class Search:
     """How ``optimize`` searches. ``method``: "ga-sa" (the thesis'; ``population`` creatures, at
     most ``generations``, stops when the population agrees within 10 %; ``options``: further
     genetic.GaSa settings), "de" (scipy differential evolution) or "random"; the last two spend
-    ``budget`` evaluations (default what ga-sa may spend at most). Same seed, same result."""
+    ``budget`` evaluations (default what ga-sa may spend at most). Same seed, same result.
+    ``space``: the genes searched (default StrokeSpace()); ``start``: the stroke ga-sa starts from
+    (default the default creature's)."""
 
     method: str = "ga-sa"
     seed: int = 0
@@ -97,6 +99,8 @@ class Search:
     generations: int = 30
     budget: int | None = None
     options: dict = field(default_factory=dict)
+    space: StrokeSpace | None = None
+    start: Creature | None = None
 
 
 @dataclass(frozen=True)
@@ -111,11 +115,28 @@ class Running:
     stop: Callable | None = None
 
 
-def optimize(config: JellyfishConfig | None = None, search: Search = Search(), running: Running = Running(),
-             space: StrokeSpace | None = None, start: Creature | None = None) -> OptimizeResult:
+def _records(method, seed, search, running, settings):
+    """(Search, Running) from optimize's arguments: the records as given, or made from the names."""
+    names = {name: {f.name for f in fields(kind)} for name, kind in (("search", Search), ("running", Running))}
+    for_search = {k: v for k, v in settings.items() if k in names["search"]}
+    for_running = {k: v for k, v in settings.items() if k in names["running"]}
+    options = {k: v for k, v in settings.items() if k not in for_search and k not in for_running}
+    if search is not None and (for_search or options or (method, seed) != ("ga-sa", 0)):
+        raise ValueError("give the search's settings in the Search, not beside it")
+    if running is not None and for_running:
+        raise ValueError("give the run's settings in the Running, not beside it")
+    given = for_search.pop("options", {})
+    search = search or Search(method, seed, **for_search, options={**given, **options})
+    return search, running or Running(**for_running)
+
+
+def optimize(config: JellyfishConfig | None = None, method="ga-sa", seed=0, search: Search | None = None,
+             running: Running | None = None, **settings) -> OptimizeResult:
     """The creature with the best fitness (eq. 3.14, scaled by the default creature's), each
     creature swimming ``config.cycles`` cycles from rest, found as ``search`` says, run as
-    ``running`` says; ``start``: the stroke ga-sa starts from (default the default creature's)."""
+    ``running`` says. Without them, ``method``, ``seed`` and ``settings`` (any field of Search or
+    Running by name, e.g. population=4, workers=1, and genetic.GaSa's for ga-sa) make them."""
+    search, running = _records(method, seed, search, running, settings)
     from . import genetic
     from .evaluation import Cancelled, Evaluator
 
@@ -123,7 +144,7 @@ def optimize(config: JellyfishConfig | None = None, search: Search = Search(), r
                                                      search.generations, search.budget)
     workers, scheduler, progress, stop = running.workers, running.scheduler, running.progress, running.stop
     config = config or default_config()
-    space = space or StrokeSpace()
+    space = search.space or StrokeSpace()
     if method not in ("ga-sa", "de", "random"):
         raise ValueError(f"unknown method {method!r}: choose 'ga-sa', 'de' or 'random'")
     if budget is not None and not (int(budget) == budget and budget >= 1):
@@ -157,7 +178,7 @@ def optimize(config: JellyfishConfig | None = None, search: Search = Search(), r
             return [c.fitness for c in cycles]
 
         if method == "ga-sa":
-            x0 = space.genes(start or default_creature(config), config)
+            x0 = space.genes(search.start or default_creature(config), config)
             found = genetic.ga_sa(objective, x0, rng, genetic.GaSa(population, generations, **search.options), stop)
         elif method == "de":
             found = genetic.differential_evolution(objective, space.dim, rng, budget, population, stop=stop,

@@ -49,18 +49,25 @@ def test_stroke_space_round_trips_and_holds_the_default_stroke():
     with pytest.raises(ValueError, match="below its upper"):
         StrokeSpace(contraction=(0.6, 0.2)).creature(genes, CFG)
     with pytest.raises(ValueError, match="unknown method"):
-        optimize(CFG, Search(method="cma"))
+        optimize(CFG, search=Search(method="cma"))
+    with pytest.raises(ValueError, match="unknown method"):
+        optimize(CFG, method="cma")  # the pipelines' form: optimize(config, method=..., seed=...)
+    with pytest.raises(ValueError, match="in the Search"):
+        optimize(CFG, method="de", search=Search())
+    with pytest.raises(ValueError, match="in the Running"):
+        optimize(CFG, running=Running(), workers=1)
     for budget in (0, -3, 2.5):  # 0 used to mean "the default" without a word
         with pytest.raises(ValueError, match="budget"):
-            optimize(CFG, Search(method="random", budget=budget))
+            optimize(CFG, search=Search(method="random", budget=budget))
 
 
 def test_same_seed_same_optimum_in_this_process_and_in_a_process_pool():
-    here = optimize(CFG, Search(seed=3, population=4, generations=2), Running(workers=1))
-    again = optimize(CFG, Search(seed=3, population=4, generations=2), Running(workers=1))
-    pool = optimize(CFG, Search(seed=3, population=4, generations=2), Running(workers=2))
-    other = optimize(CFG, Search(seed=4, population=4, generations=2), Running(workers=1))
-    assert (here.backend, pool.backend) == ("serial", "processes")
+    here = optimize(CFG, search=Search(seed=3, population=4, generations=2), running=Running(workers=1))
+    again = optimize(CFG, search=Search(seed=3, population=4, generations=2), running=Running(workers=1))
+    pool = optimize(CFG, search=Search(seed=3, population=4, generations=2), running=Running(workers=2))
+    other = optimize(CFG, search=Search(seed=4, population=4, generations=2), running=Running(workers=1))
+    named = optimize(CFG, seed=3, population=4, generations=2, workers=1)  # the older form, by name
+    assert (here.backend, pool.backend) == ("serial", "processes") and _same(here, named)
     assert _same(here, again) and _same(here, pool) and not _same(here, other)
     assert here.evaluations == 4 * 3 and [h["evaluations"] for h in here.history] == [4, 8, 12]
     # the best is the best of everything evaluated, and what it reports is what it swims
@@ -72,15 +79,15 @@ def test_same_seed_same_optimum_in_this_process_and_in_a_process_pool():
 @pytest.mark.parametrize("method", ["de", "random"])
 def test_other_methods_spend_their_budget(method):
     # differential evolution spends whole generations (population rounded up to the genes' count)
-    r = optimize(CFG, Search(method=method, seed=0, population=5, budget=10), Running(workers=1))
+    r = optimize(CFG, search=Search(method=method, seed=0, population=5, budget=10), running=Running(workers=1))
     assert r.method == method and r.evaluations == 10 and r.stopped == "budget" and np.isfinite(r.fitness)
 
 
 def test_a_stop_keeps_the_best_creature_so_far_and_progress_reaches_the_caller():
     calls = []
-    r = optimize(CFG, Search(seed=0, population=4, generations=10),
-                 Running(workers=2, progress=lambda done, total, best: calls.append((done, total, best)),
-                         stop=lambda: len(calls) >= 6))
+    r = optimize(CFG, search=Search(seed=0, population=4, generations=10),
+                 running=Running(workers=2, progress=lambda done, total, best: calls.append((done, total, best)),
+                                 stop=lambda: len(calls) >= 6))
     assert r.stopped == "cancelled" and 6 <= r.evaluations < 4 * 11
     assert [c[0] for c in calls] == list(range(1, len(calls) + 1)) and calls[0][1] == 4 * 11
     assert r.fitness == max(c[2] for c in calls)
@@ -89,9 +96,10 @@ def test_a_stop_keeps_the_best_creature_so_far_and_progress_reaches_the_caller()
 
 def test_a_dask_cluster_finds_what_the_local_pool_finds():
     distributed = pytest.importorskip("distributed")
-    local = optimize(CFG, Search(seed=5, population=4, generations=1), Running(workers=2))
+    local = optimize(CFG, search=Search(seed=5, population=4, generations=1), running=Running(workers=2))
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as lc:
-        far = optimize(CFG, Search(seed=5, population=4, generations=1), Running(scheduler=lc.scheduler_address))
+        far = optimize(CFG, search=Search(seed=5, population=4, generations=1),
+                       running=Running(scheduler=lc.scheduler_address))
     assert far.backend == "dask" and _same(local, far)
 
 
@@ -130,7 +138,7 @@ def test_a_search_over_several_cycles_scores_each_creature_over_all_of_them():
     from core.jellyfish import reference_scales, simulate_cycles
 
     cfg = replace(CFG, cycles=2)
-    r = optimize(cfg, Search(seed=1, population=4, generations=1), Running(workers=1))
+    r = optimize(cfg, search=Search(seed=1, population=4, generations=1), running=Running(workers=1))
     assert r.scales == reference_scales(CFG, cycles=2)
     replay = simulate_cycles(r.creature, CFG, 2, scales=r.scales)
     assert len(replay.path_per_cycle_m) == 2 and replay.fitness == pytest.approx(r.fitness, rel=1e-9)
@@ -142,7 +150,7 @@ def test_a_search_over_several_cycles_scores_each_creature_over_all_of_them():
 def test_the_reported_creature_swims_what_was_reported_for_it(seed, generations):
     # the search overwrites its population in place (seed 0: the best parent loses its
     # Boltzmann trial to a worse child); the kept best must not change with it
-    r = optimize(CFG, Search(seed=seed, population=4, generations=generations), Running(workers=1))
+    r = optimize(CFG, search=Search(seed=seed, population=4, generations=generations), running=Running(workers=1))
     replay = simulate_cycle(r.creature, CFG, scales=r.scales)
     assert replay.fitness == pytest.approx(r.fitness, rel=1e-9)
     assert replay.path_m == pytest.approx(r.cycle.path_m, rel=1e-9)
@@ -291,7 +299,7 @@ def test_the_search_beats_the_default_stroke_on_its_goal_and_the_fastest_swims_f
     from core.jellyfish import GOAL_WEIGHTS, simulate_cycles
 
     config = default_config(particles=40, weights=GOAL_WEIGHTS[goal])
-    found = optimize(config, Search("ga-sa", 0, 6, 2), Running(workers=1))
+    found = optimize(config, search=Search("ga-sa", 0, 6, 2), running=Running(workers=1))
     scales = reference_scales(config)
     default = simulate_cycle(default_creature(config), config, scales=scales)
     assert found.fitness >= default.fitness
