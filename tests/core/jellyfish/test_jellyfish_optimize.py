@@ -307,3 +307,19 @@ def test_the_search_beats_the_default_stroke_on_its_goal_and_the_fastest_swims_f
     if goal == "FASTEST":
         far = simulate_cycles(found.creature, config, 6).path_m
         assert far >= 1.5 * simulate_cycles(default_creature(config), config, 6).path_m
+
+
+def test_ga_sa_settings_reach_the_search_by_name_and_in_the_search():
+    """With no spread about the start and no mutation every creature is the default stroke: the
+    best and the mean of every generation are its score, w_d - w_b - w_e; the settings reach
+    genetic.ga_sa both as optimize's keywords and as the Search's options."""
+    frozen = {"spread": 0.0, "mutation": 0.0}
+    by_name = optimize(CFG, seed=0, population=4, generations=1, workers=1, **frozen)
+    in_search = optimize(CFG, search=Search(seed=0, population=4, generations=1, options=frozen),
+                         running=Running(workers=1))
+    w_d, w_b, w_e = CFG.weights
+    for r in (by_name, in_search):
+        assert r.fitness == pytest.approx(w_d - w_b - w_e, abs=1e-12)
+        assert all(h["mean"] == pytest.approx(w_d - w_b - w_e, abs=1e-12) for h in r.history)
+    spread = optimize(CFG, seed=0, population=4, generations=1, workers=1)
+    assert any(h["mean"] != pytest.approx(w_d - w_b - w_e, abs=1e-6) for h in spread.history)
