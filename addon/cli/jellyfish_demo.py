@@ -61,9 +61,12 @@ def _bell_top(bell, n):
     return top[np.argmax(top[:, 2])]
 
 
-def _render_sheet(scene, out, name, shots, width, height, samples, place_camera=None):
+def _render_sheet(scene, out, name, shots, film, place_camera=None):
+    """Cycles renders of ``shots`` (frames) at ``film`` = (width, height, samples), put together as
+    ``name``.png; returns the seconds rendering."""
     from ...sample_scenes import studio
 
+    width, height, samples = film
     paths, seconds = [], 0.0
     for k, f in enumerate(shots):
         scene.frame_set(f)
@@ -177,8 +180,8 @@ def _render_sheets(args, out, scene, bell, anchor, swim, n):
     def ride_along():
         cam.location.z = z_cam + bell.matrix_world.translation.z - anchor.location.z
 
-    swim.seconds["render_s"] = _render_sheet(scene, out, "stroke_sheet", stroke_shots, args.width, args.height,
-                                             args.samples, ride_along)
+    swim.seconds["render_s"] = _render_sheet(scene, out, "stroke_sheet", stroke_shots,
+                                             (args.width, args.height, args.samples), ride_along)
     # its travel: a fixed camera level with the bell's top (tentacles cut off), landscape, and
     # bars where the top began
     scene.frame_set(1)
@@ -192,8 +195,8 @@ def _render_sheets(args, out, scene, bell, anchor, swim, n):
     cam.location = (start[0], start[1] - view * cam.data.lens / 36.0, start[2] + 0.5 * rise)
     cam.rotation_euler = (np.radians(90.0), 0.0, 0.0)
     travel_shots = [1 + swim.every * k * frames for k in range(TRAVEL_SHOTS)]
-    swim.seconds["render_s"] += _render_sheet(scene, out, "contact_sheet", travel_shots, args.height, args.width,
-                                              args.samples)
+    swim.seconds["render_s"] += _render_sheet(scene, out, "contact_sheet", travel_shots,
+                                              (args.height, args.width, args.samples))
     return stroke_shots, travel_shots, rise
 
 

@@ -65,12 +65,24 @@ def periodic_drift(relative, dt, tether_time):
     return sweep(start)
 
 
-def water_drift(cycle, config, rest_rz, tether_time=0.25, modes=3, keep=0.995, reach=0.6):
+@dataclass(frozen=True)
+class DriftSettings:
+    """How tentacles follow the water: ``tether_time`` (cycle periods) how long the drift takes to
+    forget; at most ``modes`` drift shapes, fewer once they hold ``keep`` of its energy; points
+    more than ``reach`` bell diameters below the margin read the water at that depth (deeper, the
+    periodic box would show them the water above the bell)."""
+
+    tether_time: float = 0.25
+    modes: int = 3
+    keep: float = 0.995
+    reach: float = 0.6
+
+
+def water_drift(cycle, config, rest_rz, settings: DriftSettings = DriftSettings()):
     """The periodic drift of points at ``rest_rz`` (n, 2) over ``cycle`` (simulated with
-    ``sample_fields=True``). ``tether_time`` is in cycle periods. Points more than ``reach``
-    bell diameters below the margin read the water at that depth: deeper, the periodic box
-    would show them the water above the bell. Points near the margin drift less (they are
+    ``sample_fields=True``), as ``settings`` say. Points near the margin drift less (they are
     held by the bell itself) over a tenth of a diameter."""
+    tether_time, modes, keep, reach = settings.tether_time, settings.modes, settings.keep, settings.reach
     if not cycle.fields or cycle.swum is None:
         raise ValueError("the cycle has no sampled water: simulate it with sample_fields=True")
     rz = np.asarray(rest_rz, float).reshape(-1, 2)

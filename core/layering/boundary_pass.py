@@ -13,7 +13,7 @@ from .probe_ties import off_the_lines
 from .tracer import HitRules, Probes, trace_layers
 
 
-def spread_from_hits(vertices, faces, topology, hit_points, amplitude, seed_vertices, falloff=None):
+def spread_from_hits(vertices, topology, hit_points, amplitude, seed_vertices, falloff=None):
     """Per-vertex inward move near a higher layer's hem (Fig. 4.9-4.10).
 
     Each hit moves nearby vertices by amplitude * exp(-x^2 / 2c^2), x their distance from
@@ -71,7 +71,7 @@ def tuck_under_hems(stack, k):
     corners = f[face[hit]]
     room = stack.room_of(k, corners).max(1)
     amp = np.clip(np.minimum(t[hit] + stack.gap, room), 0.0, None)
-    spread = spread_from_hits(v, f, stack.topo[k], o[hit] + n_o[hit] * t[hit, None], amp,
+    spread = spread_from_hits(v, stack.topo[k], o[hit] + n_o[hit] * t[hit, None], amp,
                               corners.ravel(), stack.params.falloff)
     idx = np.flatnonzero(spread > 0)
     spread[idx] = stack.body_floor(k, idx, spread[idx])

@@ -181,7 +181,7 @@ class GarmentPrep:
             skirt = scheme is not None and bool((s == scheme.skirt).any())
         elif len(v):
             s, corner = part_at(c, bf, body_seg)
-            if scheme is not None and is_skirt(f, s, scheme, vertices=v, body_vertices=bv, body_segments=body_seg):
+            if scheme is not None and is_skirt(f, s, scheme, vertices=v, body=(bv, body_seg)):
                 s = skirt_segments(s, scheme)
                 skirt = True
         else:

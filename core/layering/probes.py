@@ -177,7 +177,7 @@ def nearest_part(facts, vertices, faces, parts, scheme) -> NearestOnBody:
     if parts is not None:
         part, _ = part_at(corr, facts.faces, parts)
         if scheme is not None and len(faces) and is_skirt(faces, part, scheme, vertices=vertices,
-                                                          body_vertices=facts.vertices, body_segments=parts):
+                                                          body=(facts.vertices, parts)):
             part = skirt_segments(part, scheme)
     found = NearestOnBody(None if part is None else frozen(part), frozen(radius_at(corr, facts.faces, facts.radius)),
                           frozen(corr.distance))

@@ -154,13 +154,13 @@ def boundary_loops(faces: np.ndarray, n_vertices: int) -> list:
     return topology_of(faces, n_vertices).hem_loops
 
 
-def is_skirt(faces, vertex_segment, scheme="S5", min_share=0.1, vertices=None, body_vertices=None,
-             body_segments=None) -> bool:
+def is_skirt(faces, vertex_segment, scheme="S5", min_share=0.1, vertices=None, body=None) -> bool:
     """A garment is a skirt (or dress) when one of its hems goes round both legs: most of
     that hem's points lie on the legs, at least ``min_share`` on each, and (given the
-    garment's ``vertices`` and the body) the legs are apart at the hem's height, so the hem
-    is not just a shirt's hem sagging onto the tops of the thighs. Trouser hems go round one
-    leg each; a waistband lies mostly on the torso. Heights are along z."""
+    garment's ``vertices`` and the ``body`` as (its vertices, its part per vertex)) the legs are
+    apart at the hem's height, so the hem is not just a shirt's hem sagging onto the tops of the
+    thighs. Trouser hems go round one leg each; a waistband lies mostly on the torso. Heights
+    are along z."""
     scheme = get_scheme(scheme)
     seg = np.asarray(vertex_segment)
     left, right = list(scheme.leg_parts("left")), list(scheme.leg_parts("right"))
@@ -169,10 +169,10 @@ def is_skirt(faces, vertex_segment, scheme="S5", min_share=0.1, vertices=None, b
         on_left, on_right = np.isin(s, left).mean(), np.isin(s, right).mean()
         if on_left < min_share or on_right < min_share or on_left + on_right < 0.5:
             continue
-        if vertices is None or body_vertices is None:
+        if vertices is None or body is None:
             return True
         z = float(np.asarray(vertices)[loop, 2].mean())
-        if legs_apart(z, body_vertices, body_segments, scheme):
+        if legs_apart(z, *body, scheme):
             return True
     return False
 

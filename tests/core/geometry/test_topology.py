@@ -92,7 +92,7 @@ def test_a_hem_tuck_stays_on_its_side_of_a_fold():
                and abs(v[f[k], 1].mean()) < 0.01)
     hit = v[f[tri]].mean(0, keepdims=True)
     c = 0.02
-    out = spread_from_hits(v, f, topo, hit, np.array([0.004]), f[tri], falloff=c)
+    out = spread_from_hits(v, topo, hit, np.array([0.004]), f[tri], falloff=c)
     x = np.linalg.norm(v - hit, axis=1)
     want = np.where(x <= 3 * c, 0.004 * np.exp(-(x**2) / (2 * c * c)), 0.0)
     want[np.setdiff1d(np.arange(len(v)), upper)] = 0.0

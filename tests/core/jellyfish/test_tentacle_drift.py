@@ -4,7 +4,7 @@ from scipy.integrate import solve_ivp
 
 from core.jellyfish import CycleResult, default_config, default_creature, simulate_cycle
 from core.jellyfish.mps import lattice
-from core.jellyfish.tentacle_drift import periodic_drift, water_drift
+from core.jellyfish.tentacle_drift import DriftSettings, periodic_drift, water_drift
 
 
 def _cycle(config, velocity, speed, swum=None):
@@ -38,7 +38,7 @@ def test_uniform_water_gives_the_tethered_offset_and_no_sideways_drift():
     cycle = _cycle(cfg, lambda p, t: np.broadcast_to(water, p.shape).copy(), speed=0.02)
     rz = np.column_stack([np.full(6, 0.05), np.linspace(-0.12, -0.03, 6)])
     tether = 0.3
-    w = water_drift(cycle, cfg, rz, tether_time=tether)
+    w = water_drift(cycle, cfg, rz, DriftSettings(tether_time=tether))
     ramp = -np.expm1(rz[:, 1] / (0.1 * cfg.bell.diameter))  # depth below the margin is -z
     expect = np.column_stack([np.zeros(6), tether * cfg.period * (water[1] - 0.02) * ramp])
     for k in range(cfg.substeps):
@@ -59,7 +59,7 @@ def test_water_is_read_where_the_point_is_in_the_bell_frame():
     cycle = _cycle(cfg, lambda p, t: np.column_stack([np.zeros(len(p)), flow(p)]), speed=0.0, swum=swum)
     rz = np.column_stack([np.linspace(0.01, 0.07, 5), np.full(5, -0.05)])
     tether = 1e3  # so long that each step's drift is the velocity times the step
-    w = water_drift(cycle, cfg, rz, tether_time=tether, reach=10.0)
+    w = water_drift(cycle, cfg, rz, DriftSettings(tether_time=tether, reach=10.0))
     dt = cfg.period / cfg.substeps
     ramp = -np.expm1(-0.05 / (0.1 * cfg.bell.diameter))
     origin = np.array([0.5 * cfg.box, 0.5 * cfg.box - 0.5 * cfg.bell.height])
@@ -75,14 +75,14 @@ def test_shapes_replay_the_drift_of_a_simulated_cycle():
     cfg = default_config(particles=40)
     cycle = simulate_cycle(default_creature(cfg), cfg, sample_fields=True)
     rz = np.column_stack([np.full(12, 0.048), np.linspace(0.0, -0.15, 12)])
-    w = water_drift(cycle, cfg, rz, modes=3, keep=0.999)
+    w = water_drift(cycle, cfg, rz, DriftSettings(modes=3, keep=0.999))
     replay = np.array([w.at(t) for t in w.times])
     err = np.linalg.norm(replay - w.drift) / np.linalg.norm(w.drift)
     # the shapes are the drift's best rank-k fit (Eckart-Young): what they miss is exactly the
     # share of its sum of squares they leave out, neither more nor less
     assert err == pytest.approx(np.sqrt(1 - w.captured), rel=1e-6, abs=1e-12)
     assert w.captured >= 0.99
-    one = water_drift(cycle, cfg, rz, modes=1, keep=0.999)
+    one = water_drift(cycle, cfg, rz, DriftSettings(modes=1, keep=0.999))
     assert np.linalg.norm(np.array([one.at(t) for t in one.times]) - w.drift) == pytest.approx(
         np.sqrt(1 - one.captured) * np.linalg.norm(w.drift), rel=1e-6)
     assert one.captured < w.captured
@@ -97,7 +97,7 @@ def test_bad_parameters_are_refused(bad):
     cfg = default_config(particles=16, substeps=4)
     cycle = _cycle(cfg, lambda p, t: np.zeros_like(p), speed=0.0)
     with pytest.raises(ValueError):
-        water_drift(cycle, cfg, [[0.05, -0.02]], **bad)
+        water_drift(cycle, cfg, [[0.05, -0.02]], DriftSettings(**bad))
 
 
 def test_a_cycle_without_sampled_water_is_refused():
