@@ -93,7 +93,9 @@ class LatticeFluid:
         on: a wall oscillating in its own plane is one moved before every step."""
         self.box = replace(self.box, wall_velocity=dict(wall_velocity))
         _, _, _, self._offset = ghosts(self.points, self.box, self.re)
-        self._viscous = {}  # their constant parts hold the old walls
+        # the viscous matrices do not see the walls' speed: only their constant parts change
+        for key, (matrix, _) in self._viscous.items():
+            self._viscous[key] = (matrix, self._wall_constant(key[1]))
 
     # --- values at ghosts -------------------------------------------------------------
     def _extended(self, u):
@@ -321,9 +323,12 @@ class LatticeFluid:
         if key not in self._viscous:
             lap = self._nb.laplacian_matrix(self.n0, self.lam, self._column,
                                             np.concatenate([np.ones(self.n), self._sign[:, k]]))
-            const = self._nb.laplacian(np.concatenate([np.zeros(self.n), self._offset[:, k]]), self.n0, self.lam)
-            self._viscous[key] = (lap, const)
+            self._viscous[key] = (lap, self._wall_constant(k))
         return self._viscous[key]
+
+    def _wall_constant(self, k):
+        """The part of component k's viscous Laplacian the moving walls' ghosts add (zero at rest)."""
+        return self._nb.laplacian(np.concatenate([np.zeros(self.n), self._offset[:, k]]), self.n0, self.lam)
 
     def _pressure_operator(self):
         return self._nb.laplacian_matrix(self.n0, self.lam, self._column)
