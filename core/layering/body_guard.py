@@ -20,16 +20,6 @@ _HALVINGS = 3
 
 
 @dataclass(frozen=True)
-class GuardedBody:
-    """The body as the guard asks it: its RayScene, vertices, and edges as (pairs, lows, highs),
-    each edge's ends and its box column by column."""
-
-    scene: object
-    vertices: np.ndarray
-    edges: tuple
-
-
-@dataclass(frozen=True)
 class Cloth:
     """A layer's faces and edges (vertex pairs); ``scene``: a callable giving a RayScene over all
     its faces where the layer lies, or None."""
@@ -39,10 +29,11 @@ class Cloth:
     scene: Callable | None = None
 
 
-def crossing_corners(body: GuardedBody, cloth: Cloth, vertices, tri, edges):
+def crossing_corners(body, cloth: Cloth, vertices, tri, edges):
     """Bool mask over ``vertices`` (the cloth's, where it lies): ends of ``edges`` that pass through
     the body, and corners of the triangles ``tri`` (face ids) that an edge of the body passes
-    through (traced on the cloth's scene, or on one built over ``tri``)."""
+    through (traced on the cloth's scene, or on one built over ``tri``). ``body``: its BodyFacts
+    (its scene, vertices, and edges with their boxes)."""
     body_vertices, faces, scene = body.vertices, cloth.faces, cloth.scene
     out = np.zeros(len(vertices), dtype=bool)
     if len(edges):
@@ -82,7 +73,7 @@ def crossing_corners(body: GuardedBody, cloth: Cloth, vertices, tri, edges):
     return out
 
 
-def back_off(body: GuardedBody, cloth: Cloth, before, after, clearance):
+def back_off(body, cloth: Cloth, before, after, clearance):
     """``after`` (a layer's vertices once moved, ``before`` as they came) with the moves that put
     cloth through the body taken back, halving them first. ``clearance``: a lower bound on each
     vertex's distance from the body at ``after`` (inf inside it). The cloth's scene (over it at
@@ -129,8 +120,7 @@ def keep_out_of_body(stack, k) -> None:
     bounds no distance from below, so there every moved triangle is asked. The layer's scene
     serves the layers under it next: built here, it is not built twice."""
     near = np.zeros(len(stack.verts[k])) if stack.params.correspondence[k] is not None else stack.clearance[k]
-    body = GuardedBody(stack.body.scene, stack.body_vertices, stack.body.edges)
-    kept_out, n_back = back_off(body, Cloth(stack.faces[k], stack.edges[k], stack.scenes[k].full), stack.rest[k],
+    kept_out, n_back = back_off(stack.body, Cloth(stack.faces[k], stack.edges[k], stack.scenes[k].full), stack.rest[k],
                                 stack.verts[k], near)
     if n_back:
         stack.moved(k, kept_out)

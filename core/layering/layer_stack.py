@@ -14,9 +14,9 @@ class LayerStack:
     vertex's room in front of the body). Only the garments the pre-processing found near another
     (``active``) have their topology and scenes; the rest never move."""
 
-    def __init__(self, body, body_vertices, garr, prep, params):
+    def __init__(self, body, garr, prep, params):
         n_g = len(garr)
-        self.body, self.body_vertices, self.params, self.n_garments = body, body_vertices, params, n_g
+        self.body, self.params, self.n_garments = body, params, n_g
         self.rest = [v for v, _ in garr]  # as they came (lifted off the body: body_lift), for the body guard
         self.fitted = list(self.rest)  # as they came, always
         self.verts = [v.copy() for v, _ in garr]

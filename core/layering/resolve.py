@@ -102,7 +102,7 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
     reach = widened(reach, prep, p, p.gap)
     timings["correspondence_s"] = time.perf_counter() - t0
 
-    stack = LayerStack(facts, bv, garr, prep, p)
+    stack = LayerStack(facts, garr, prep, p)
     lifts = _lift(stack, prep, previous, timings)
     _fit_layers(stack, timings)
     _shorten_torn(stack)
