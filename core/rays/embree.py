@@ -43,10 +43,11 @@ def commit(scene):
         scene.run(np.zeros((1, 3), np.float32), np.array([[0.0, 0.0, 1.0]], np.float32))
 
 
-def occluded(scene, center, threads, o, d, lo, span):
-    """Occlusion of rays from ``o`` (+ ``d`` x ``lo``, if given) over ``span`` against an
-    embreex scene built about ``center`` (committed first)."""
+def occluded(scene, center, threads, segments):
+    """Occlusion of ray_input.Segments against an embreex scene built about ``center``
+    (committed first)."""
     commit(scene)
+    o, d, lo, span = segments.o, segments.d, segments.lo, segments.span
 
     # each worker converts its own slice to float32, so that runs on every core too
     def run(sl):
@@ -124,9 +125,9 @@ class EmbreeEngine:
         map_chunks(run, n, MIN_RAYS_PER_CHUNK, rays.threads)
         return tf, ff, uv
 
-    def occluded(self, rays, o, d, lo, tmax, scaled):
-        """Occlusion of the rays (from ``o`` + ``d`` x ``lo``, if given, up to ``tmax``)."""
-        return occluded(self.scene, self.center, rays.threads, o, d, lo, tmax if lo is None else tmax - lo)
+    def occluded(self, rays, segments, scaled):
+        """Occlusion of ray_input.Segments on the RayScene ``rays``."""
+        return occluded(self.scene, self.center, rays.threads, segments)
 
 
 class EmbreeInstances(EmbreeEngine):

@@ -75,7 +75,8 @@ class NumpyEngine:
         uv[hit] = rays.barycentric(o[hit] + d[hit] * tf[hit, None], ff[hit])
         return tf, ff, uv
 
-    def occluded(self, rays, o, d, lo, tmax, scaled):
+    def occluded(self, rays, segments, scaled):
+        o, d, lo, tmax = segments.o, segments.d, segments.lo, segments.tmax
         scale = norms(d) if scaled else np.ones(len(o))
         with np.errstate(divide="ignore", invalid="ignore"):
             unit = d / scale[:, None]

@@ -4,6 +4,8 @@ search of a ray starts."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..geometry.vectors import norms
@@ -48,17 +50,35 @@ def as_range(name: str, value, n: int, default: float) -> np.ndarray:
     return arr
 
 
+@dataclass(frozen=True)
+class Segments:
+    """The rays an occlusion query traces: from o + d x lo (``lo`` None: from o) to o + d x tmax."""
+
+    o: np.ndarray
+    d: np.ndarray
+    lo: np.ndarray | None
+    tmax: np.ndarray
+
+    @property
+    def span(self) -> np.ndarray:
+        """Each ray's length from where it starts."""
+        return self.tmax if self.lo is None else self.tmax - self.lo
+
+
 def occlusion_rays(origins, directions, max_dist, min_dist, scaled):
-    """Checked rays of an occlusion query: (o, d, tmin, tmax, all-False answers, the rays with
-    tmax >= tmin as a slice or indices, None when there are none)."""
+    """Checked rays of an occlusion query: (all-False answers, the rays with tmax >= tmin as a
+    slice or indices and those rays' Segments; both None when there are none)."""
     o, d = as_rays(origins, directions, scaled)
     n = len(o)
     tmax = as_range("max_dist", max_dist, n, np.inf)
     tmin = as_range("min_dist", min_dist, n, 0.0)
     active = tmax >= tmin
+    out = np.zeros(n, dtype=bool)
+    if not active.any():
+        return out, None, None
     # every ray from its own origin (the common case): no gathers, no shifted origins
-    idx = None if not active.any() else slice(None) if active.all() else np.flatnonzero(active)
-    return o, d, tmin, tmax, np.zeros(n, dtype=bool), idx
+    idx = slice(None) if active.all() else np.flatnonzero(active)
+    return out, idx, Segments(o[idx], d[idx], None if min_dist is None else tmin[idx], tmax[idx])
 
 
 def step_past_hit(length, lo, hi):
@@ -68,4 +88,4 @@ def step_past_hit(length, lo, hi):
     return 1e-6 * (length + float(norms((np.asarray(hi) - np.asarray(lo))[None])[0]))
 
 
-__all__ = ["as_points", "as_range", "as_rays", "occlusion_rays", "step_past_hit", "unit_rays"]
+__all__ = ["Segments", "as_points", "as_range", "as_rays", "occlusion_rays", "step_past_hit", "unit_rays"]

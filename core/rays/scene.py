@@ -235,11 +235,10 @@ class RayScene:
         ``scaled``: the directions are used as given, not made of length one, and the distances
         are in units of each direction's length (an edge as origin and vector: 0..1)."""
         self._check_fresh()
-        o, d, tmin, tmax, out, idx = occlusion_rays(origins, directions, max_dist, min_dist, scaled)
+        out, idx, segments = occlusion_rays(origins, directions, max_dist, min_dist, scaled)
         if self._engine is None or idx is None:
             return out
-        out[idx] = self._engine.occluded(self, o[idx], d[idx], None if min_dist is None else tmin[idx], tmax[idx],
-                                         scaled)
+        out[idx] = self._engine.occluded(self, segments, scaled)
         return out
 
     def commit(self) -> None:

@@ -42,11 +42,10 @@ class SceneUnion:
             for s in self._members:
                 out |= s.occluded(origins, directions, max_dist=max_dist, min_dist=min_dist, scaled=scaled)
             return out
-        o, d, tmin, tmax, out, idx = occlusion_rays(origins, directions, max_dist, min_dist, scaled)
+        out, idx, segments = occlusion_rays(origins, directions, max_dist, min_dist, scaled)
         if idx is None:
             return out
-        out[idx] = embree.occluded(self._scene, self._center, self.threads, o[idx], d[idx],
-                                    None if min_dist is None else tmin[idx], tmax[idx] - tmin[idx])
+        out[idx] = embree.occluded(self._scene, self._center, self.threads, segments)
         return out
 
 
