@@ -13,7 +13,7 @@ import numpy as np
 
 from bench.report import machine, table, write_section
 from core.jellyfish import default_config
-from core.jellyfish.fluid_box import Box
+from core.jellyfish.fluid_box import Box, Liquid
 from core.jellyfish.particle_fluid import LatticeFluid
 
 NU, PERIOD, SPEED = 1e-5, 1.0, 0.01
@@ -24,8 +24,8 @@ def layer_error(per_layer, steps):
     d = np.sqrt(2 * NU / w)
     ny = int(round(8 * per_layer))
     h = 8 * d / ny
-    f = LatticeFluid(Box(4 * h, 8 * d, periodic=(True, False), mirrors=("top",)), nx=4, ny=ny, viscosity=NU,
-                     density=1000.0)
+    f = LatticeFluid(Box(4 * h, 8 * d, periodic=(True, False), mirrors=("top",)), nx=4, ny=ny,
+                     liquid=Liquid(viscosity=NU, density=1000.0))
     y = f.points[:, 1]
     f.u[:, 0] = SPEED * np.exp(-y / d) * np.cos(-y / d)
     dt = PERIOD / steps

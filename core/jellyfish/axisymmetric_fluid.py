@@ -16,22 +16,26 @@ directly: the operator is unsymmetric, and its left null vector (not the constan
 in the plane) makes the right-hand side solvable.
 """
 
+from dataclasses import replace
+
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .fluid_box import Box
+from .fluid_box import Box, Liquid, Stepping
 from .particle_fluid import LatticeFluid
 
 
 class AxisymmetricFluid(LatticeFluid):
     """Velocity (u_r, u_z) on an nr x nz lattice filling [0, radius] x [0, height]."""
 
-    def __init__(self, radius: float, height: float, nr: int, nz: int, **options):
-        if options.get("pressure_solver", "direct") != "direct":
+    def __init__(self, radius: float, height: float, nr: int, nz: int, liquid: Liquid | None = None,
+                 stepping: Stepping | None = None):
+        stepping = stepping or Stepping()
+        if stepping.pressure_solver not in ("auto", "direct"):
             raise ValueError("the axisymmetric fluid solves its pressure directly")
-        options["pressure_solver"] = "direct"
-        super().__init__(Box(radius, height, periodic=(False, True), mirrors=("left", "right")), nr, nz, **options)
+        super().__init__(Box(radius, height, periodic=(False, True), mirrors=("left", "right")), nr, nz, liquid,
+                         replace(stepping, pressure_solver="direct"))
         self.radius = self.points[:, 0]
         self.volume = 2.0 * np.pi * self.radius * self.h**2
         self._dr = None

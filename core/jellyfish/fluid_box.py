@@ -1,8 +1,10 @@
-"""The fluid's box and its sides: walls (no-slip, moving along themselves), mirrors and periodic
-sides, made of ghost particles outside the box; and the error a simulation raises when its
-numbers stop meaning anything."""
+"""What a lattice fluid is set up with: its box and the box's sides (walls, no-slip and moving
+along themselves, mirrors and periodic sides, made of ghost particles outside the box), the
+liquid in it, how it steps; and the error a simulation raises when its numbers stop meaning
+anything."""
 
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -11,6 +13,48 @@ SIDES = ("left", "right", "bottom", "top")
 
 class FluidBlowUp(RuntimeError):
     """The simulation left the range where its numbers mean anything."""
+
+
+@dataclass(frozen=True)
+class Liquid:
+    """What fills the box: kinematic viscosity (m^2/s), density (kg/m^3) and a body force per unit
+    mass (m/s^2, along x and y)."""
+
+    viscosity: float = 1e-6
+    density: float = 1000.0
+    body_force: tuple = (0.0, 0.0)
+
+    def __post_init__(self):
+        if not (np.isfinite(self.viscosity) and self.viscosity >= 0):
+            raise ValueError(f"viscosity must be finite and >= 0, got {self.viscosity}")
+        if not (np.isfinite(self.density) and self.density > 0):
+            raise ValueError(f"density must be finite and > 0, got {self.density}")
+
+
+@dataclass(frozen=True)
+class Stepping:
+    """How the lattice fluid steps: its kernel's reach in spacings (``re_factor``), the largest
+    Courant number of an inner step (``cfl``), how the pressure is solved ("auto": spectral on a
+    box periodic both ways, else "direct"; or "krylov"), and how a forced body's velocity is
+    imposed: GMRES corrections after each projection, a fixed count, or until the field on the
+    body meets its velocity to ``forcing_tolerance`` (a share of its fastest speed)."""
+
+    re_factor: float = 2.1
+    cfl: float = 1.0
+    pressure_solver: str = "auto"
+    forcing_corrections: int = 1
+    forcing_tolerance: float | None = None
+
+    def __post_init__(self):
+        if not (0 < self.cfl <= 5):
+            raise ValueError(f"cfl must be in (0, 5], got {self.cfl}")
+        if int(self.forcing_corrections) != self.forcing_corrections or self.forcing_corrections < 0:
+            raise ValueError(f"forcing_corrections must be a whole number >= 0, got {self.forcing_corrections}")
+        tol = self.forcing_tolerance
+        if tol is not None and not (np.isfinite(tol) and tol > 0):
+            raise ValueError(f"forcing_tolerance must be a share > 0 of the body's speed (or None), got {tol}")
+        if self.pressure_solver not in ("auto", "spectral", "direct", "krylov"):
+            raise ValueError("pressure_solver is 'auto', 'spectral', 'direct' or 'krylov'")
 
 
 @dataclass
@@ -36,9 +80,19 @@ class Box:
             raise ValueError(f"a periodic side cannot be a mirror: {sorted(wrapped & set(self.mirrors))}")
 
 
-def ghosts(points, box: Box, reach):
-    """Ghost particles within ``reach`` outside the box: (positions, source index, velocity
-    sign (g, 2), velocity offset (g, 2)). Periodic copies are made first, so walls mirror them too."""
+class Ghosts(NamedTuple):
+    """Particles mirrored or copied across the box's sides: where they are, which particle each
+    copies, and how its velocity follows that particle's (times ``sign``, plus ``offset``)."""
+
+    positions: np.ndarray
+    source: np.ndarray
+    sign: np.ndarray
+    offset: np.ndarray
+
+
+def ghosts(points, box: Box, reach) -> Ghosts:
+    """The Ghosts within ``reach`` outside the box. Periodic copies are made first, so walls
+    mirror them too."""
     n = len(points)
     pos, src = points.copy(), np.arange(n)
     sign, offset = np.ones((n, 2)), np.zeros((n, 2))
@@ -68,7 +122,7 @@ def ghosts(points, box: Box, reach):
         for p, s, g, o in new:
             pos, src = np.vstack([pos, p]), np.concatenate([src, s])
             sign, offset = np.vstack([sign, g]), np.vstack([offset, o])
-    return pos[n:], src[n:], sign[n:], offset[n:]
+    return Ghosts(pos[n:], src[n:], sign[n:], offset[n:])
 
 
-__all__ = ["SIDES", "Box", "FluidBlowUp", "ghosts"]
+__all__ = ["SIDES", "Box", "FluidBlowUp", "Ghosts", "Liquid", "Stepping", "ghosts"]

@@ -23,7 +23,7 @@ from scipy.ndimage import map_coordinates, spline_filter
 
 from ..geometry.cache import Cache
 from .body_projection import project_with_body
-from .fluid_box import SIDES, Box, FluidBlowUp, ghosts
+from .fluid_box import SIDES, Box, FluidBlowUp, Liquid, Stepping, ghosts
 from .mps import Neighbours, lattice
 
 # Factored pressure matrices by lattice: an optimisation simulates many creatures on one.
@@ -33,35 +33,23 @@ PRESSURE_FACTORS = Cache(max_entries=4)
 class LatticeFluid:
     """Velocity on an nx x ny lattice of particles filling ``box``; ``step(dt)`` advances it."""
 
-    def __init__(self, box: Box, nx: int, ny: int | None = None, viscosity=1e-6, density=1000.0,
-                 body_force=(0.0, 0.0), re_factor=2.1, cfl=1.0, pressure_solver="auto", forcing_corrections=1,
-                 forcing_tolerance=None):
+    def __init__(self, box: Box, nx: int, ny: int | None = None, liquid: Liquid | None = None,
+                 stepping: Stepping | None = None):
+        """``liquid`` and ``stepping``: what fills the box and how it steps (their defaults: water)."""
+        liquid, stepping = liquid or Liquid(), stepping or Stepping()
         ny = nx if ny is None else ny
         if nx < 4 or ny < 4:
             raise ValueError(f"the lattice needs at least 4 x 4 particles, got {nx} x {ny}")
         hx, hy = box.width / nx, box.height / ny
         if not np.isclose(hx, hy, rtol=1e-9):
             raise ValueError(f"the lattice must be square: {box.width}/{nx} != {box.height}/{ny}")
-        if not (np.isfinite(viscosity) and viscosity >= 0):
-            raise ValueError(f"viscosity must be finite and >= 0, got {viscosity}")
-        if not (np.isfinite(density) and density > 0):
-            raise ValueError(f"density must be finite and > 0, got {density}")
-        if not (0 < cfl <= 5):
-            raise ValueError(f"cfl must be in (0, 5], got {cfl}")
-        if int(forcing_corrections) != forcing_corrections or forcing_corrections < 0:
-            raise ValueError(f"forcing_corrections must be a whole number >= 0, got {forcing_corrections}")
-        self.forcing_corrections = int(forcing_corrections)
-        if forcing_tolerance is not None and not (np.isfinite(forcing_tolerance) and forcing_tolerance > 0):
-            raise ValueError(f"forcing_tolerance must be a share > 0 of the body's speed (or None), "
-                             f"got {forcing_tolerance}")
-        self.forcing_tolerance = forcing_tolerance
-        if pressure_solver not in ("auto", "spectral", "direct", "krylov"):
-            raise ValueError("pressure_solver is 'auto', 'spectral', 'direct' or 'krylov'")
+        pressure_solver, re_factor = stepping.pressure_solver, stepping.re_factor
         if pressure_solver == "spectral" and not all(box.periodic):
             raise ValueError("the spectral solves need a box periodic on both axes")
+        self.forcing_corrections, self.forcing_tolerance = int(stepping.forcing_corrections), stepping.forcing_tolerance
         self.box, self.nx, self.ny, self.h = box, nx, ny, hx
-        self.nu, self.rho, self.cfl = float(viscosity), float(density), float(cfl)
-        self.body_force = np.asarray(body_force, float)
+        self.nu, self.rho, self.cfl = float(liquid.viscosity), float(liquid.density), float(stepping.cfl)
+        self.body_force = np.asarray(liquid.body_force, float)
         # On a lattice periodic both ways every operator is the same stencil at every particle (a
         # circulant): the Fourier transform makes the pressure and viscous solves divisions.
         if pressure_solver == "auto":
@@ -71,8 +59,9 @@ class LatticeFluid:
         self.points = lattice(nx, ny, self.h)
         self.n = len(self.points)
         self.re = re_factor * self.h
-        gpos, self._src, self._sign, self._offset = ghosts(self.points, box, self.re)
-        self._nb = Neighbours.build(np.vstack([self.points, gpos]), self.re, n_rows=self.n)
+        ghost = ghosts(self.points, box, self.re)
+        self._src, self._sign, self._offset = ghost.source, ghost.sign, ghost.offset
+        self._nb = Neighbours.build(np.vstack([self.points, ghost.positions]), self.re, n_rows=self.n)
         # the constants of a full lattice: exact Laplacian of quadratics, exact linear gradients
         full = Neighbours.build(lattice(9, 9, self.h), self.re)
         self.n0, self.lam = float(full.density()[40]), float(full.lam()[40])
@@ -92,7 +81,7 @@ class LatticeFluid:
         """The walls' velocities along themselves (m/s by side, as Box takes them) from the next step
         on: a wall oscillating in its own plane is one moved before every step."""
         self.box = replace(self.box, wall_velocity=dict(wall_velocity))
-        _, _, _, self._offset = ghosts(self.points, self.box, self.re)
+        self._offset = ghosts(self.points, self.box, self.re).offset
         # the viscous matrices do not see the walls' speed: only their constant parts change
         for key, (matrix, _) in self._viscous.items():
             self._viscous[key] = (matrix, self._wall_constant(key[1]))

@@ -5,7 +5,7 @@ sits in it, and how the bell's section turns into the volume its tissue keeps. O
 import numpy as np
 
 from .axisymmetric_fluid import AxisymmetricFluid
-from .fluid_box import Box
+from .fluid_box import Box, Liquid, Stepping
 from .particle_fluid import LatticeFluid
 
 
@@ -18,7 +18,7 @@ class Water:
     def check(self, config) -> None:
         """Raise ValueError for a config this water cannot be made from."""
 
-    def lattice(self, config, **options) -> LatticeFluid:
+    def lattice(self, config, liquid: Liquid, stepping: Stepping) -> LatticeFluid:
         raise NotImplementedError
 
     def axis_x(self, config) -> float:
@@ -49,8 +49,8 @@ class RoundTheAxis(Water):
         if config.particles % 2:
             raise ValueError(f"particles must be even round the axis (half on each side), got {config.particles}")
 
-    def lattice(self, config, **options) -> LatticeFluid:
-        return AxisymmetricFluid(0.5 * config.box, config.height, config.particles // 2, config.rows, **options)
+    def lattice(self, config, liquid: Liquid, stepping: Stepping) -> LatticeFluid:
+        return AxisymmetricFluid(0.5 * config.box, config.height, config.particles // 2, config.rows, liquid, stepping)
 
     def axis_x(self, config) -> float:
         return 0.0  # the lattice starts at the axis
@@ -74,9 +74,9 @@ class Planar(Water):
     label = "Planar"
     description = "A bell as long as the water is deep (flat 2D water): the same stroke swims about half as far"
 
-    def lattice(self, config, **options) -> LatticeFluid:
+    def lattice(self, config, liquid: Liquid, stepping: Stepping) -> LatticeFluid:
         return LatticeFluid(Box(config.box, config.height, periodic=(True, True)), nx=config.particles,
-                            ny=config.rows, **options)
+                            ny=config.rows, liquid=liquid, stepping=stepping)
 
     def axis_x(self, config) -> float:
         return 0.5 * config.box
@@ -100,6 +100,7 @@ def water(key: str) -> Water:
 
 def lattice_for(config) -> LatticeFluid:
     """The config's water as a particle lattice, with its viscosity, density and forcing."""
-    options = dict(viscosity=config.viscosity, density=config.density, cfl=config.cfl,
-                   forcing_corrections=config.forcing_corrections, forcing_tolerance=config.forcing_tolerance)
-    return water(config.fluid).lattice(config, **options)
+    return water(config.fluid).lattice(
+        config, Liquid(viscosity=config.viscosity, density=config.density),
+        Stepping(cfl=config.cfl, forcing_corrections=config.forcing_corrections,
+                 forcing_tolerance=config.forcing_tolerance))

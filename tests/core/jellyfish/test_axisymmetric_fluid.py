@@ -8,6 +8,7 @@ from scipy.special import j0, j1, jn_zeros
 
 from core.jellyfish.axisymmetric_fluid import AxisymmetricFluid
 from core.jellyfish.bell import BellMap, BellShape, SolidBell
+from core.jellyfish.fluid_box import Liquid, Stepping
 from core.jellyfish.mps import lattice
 from core.jellyfish.swimming import default_config, default_creature, simulate_cycles
 from core.jellyfish.waters import WATERS
@@ -15,8 +16,8 @@ from core.jellyfish.waters import WATERS
 RADIUS, HEIGHT = 0.1, 0.2
 
 
-def _fluid(n=40, **options):
-    return AxisymmetricFluid(RADIUS, HEIGHT, n, 2 * n, **options)
+def _fluid(n=40, viscosity=1e-6):
+    return AxisymmetricFluid(RADIUS, HEIGHT, n, 2 * n, Liquid(viscosity=viscosity))
 
 
 def test_a_divergence_free_field_of_revolution_has_none_and_the_error_falls_with_the_spacing():
@@ -133,7 +134,7 @@ def test_the_solid_bell_keeps_its_volume_where_the_map_alone_loses_it(water):
 
 def test_the_axisymmetric_fluid_refuses_what_it_cannot_do():
     with pytest.raises(ValueError, match="directly"):
-        AxisymmetricFluid(RADIUS, HEIGHT, 8, 16, pressure_solver="spectral")
+        AxisymmetricFluid(RADIUS, HEIGHT, 8, 16, stepping=Stepping(pressure_solver="spectral"))
     with pytest.raises(ValueError, match="even"):
         default_config(particles=51)
     with pytest.raises(ValueError, match="fluid"):

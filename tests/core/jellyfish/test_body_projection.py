@@ -7,12 +7,12 @@ import pytest
 from scipy.linalg import lstsq, null_space
 
 from core.jellyfish.body_projection import ImposedBody, project_with_body
-from core.jellyfish.fluid_box import Box
+from core.jellyfish.fluid_box import Box, Liquid
 from core.jellyfish.particle_fluid import LatticeFluid
 
 
 def disc_in_a_swirl(nx=24):
-    f = LatticeFluid(Box(1.0, 1.0, periodic=(True, True)), nx=nx, viscosity=1e-3, density=1.0)
+    f = LatticeFluid(Box(1.0, 1.0, periodic=(True, True)), nx=nx, liquid=Liquid(viscosity=1e-3, density=1.0))
     x, y = f.points.T
     u = np.column_stack([np.sin(2 * np.pi * y), 0.3 * np.cos(2 * np.pi * x)])  # off the body: a shear flow
     disc = np.linalg.norm(f.points - [0.5, 0.45], axis=1) < 0.16

@@ -5,16 +5,16 @@ stiff and bad input."""
 import numpy as np
 import pytest
 
-from core.jellyfish.fluid_box import Box, FluidBlowUp
+from core.jellyfish.fluid_box import Box, FluidBlowUp, Liquid, Stepping
 from core.jellyfish.particle_fluid import LatticeFluid
 
 H, G, NU = 1.0, 1.0, 0.1
 
 
-def channel(ny, **kw):
+def channel(ny, body_force=(0.0, 0.0), box=None):
     # periodic in x (four particles wide), no-slip walls at y = 0 and y = H
-    return LatticeFluid(Box(4 * H / ny, H, periodic=(True, False), **kw.pop("box", {})), nx=4, ny=ny,
-                        viscosity=NU, density=1.0, **kw)
+    return LatticeFluid(Box(4 * H / ny, H, periodic=(True, False), **(box or {})), nx=4, ny=ny,
+                        liquid=Liquid(viscosity=NU, density=1.0, body_force=body_force))
 
 
 def poiseuille(y):
@@ -66,8 +66,8 @@ def stokes_layer(per_layer, steps, nu=1e-5, period=1.0, speed=0.01):
     exact = lambda y, t: speed * np.exp(-y / delta) * np.cos(w * t - y / delta)  # noqa: E731
     ny = int(round(8 * per_layer))
     h = 8 * delta / ny
-    f = LatticeFluid(Box(4 * h, 8 * delta, periodic=(True, False), mirrors=("top",)), nx=4, ny=ny, viscosity=nu,
-                     density=1000.0)
+    f = LatticeFluid(Box(4 * h, 8 * delta, periodic=(True, False), mirrors=("top",)), nx=4, ny=ny,
+                     liquid=Liquid(viscosity=nu, density=1000.0))
     y = f.points[:, 1]
     f.u[:, 0] = exact(y, 0.0)
     dt = period / steps
@@ -92,7 +92,7 @@ def test_the_layer_over_an_oscillating_wall_converges_to_stokes_solution():
 
 
 def taylor_green(n, nu=0.01):
-    f = LatticeFluid(Box(1.0, 1.0, periodic=(True, True)), nx=n, viscosity=nu, density=1.0)
+    f = LatticeFluid(Box(1.0, 1.0, periodic=(True, True)), nx=n, liquid=Liquid(viscosity=nu, density=1.0))
     k = 2 * np.pi
     x, y = f.points.T
     shape = np.column_stack([-np.cos(k * x) * np.sin(k * y), np.sin(k * x) * np.cos(k * y)])
@@ -117,7 +117,7 @@ def test_lid_driven_cavity_matches_ghia_at_reynolds_100():
     line against Ghia, Ghia and Shin (1982), Table I. A moving wall's velocity put in the wrong
     component of its ghost rows, or walls that leak, miss it by far more."""
     n = 32
-    f = LatticeFluid(Box(1.0, 1.0, wall_velocity={"top": 1.0}), nx=n, viscosity=0.01, density=1.0)
+    f = LatticeFluid(Box(1.0, 1.0, wall_velocity={"top": 1.0}), nx=n, liquid=Liquid(viscosity=0.01, density=1.0))
     for _ in range(300):
         f.step(0.05)
     grid = f.u.reshape(n, n, 2)
@@ -134,8 +134,8 @@ def test_fourier_solves_agree_with_the_sparse_ones_on_a_periodic_box():
     is not square in particles."""
     def run(solver):
         rng = np.random.default_rng(3)
-        f = LatticeFluid(Box(1.0, 1.5, periodic=(True, True)), nx=16, ny=24, viscosity=0.05, density=1.0,
-                         pressure_solver=solver)
+        f = LatticeFluid(Box(1.0, 1.5, periodic=(True, True)), nx=16, ny=24, liquid=Liquid(viscosity=0.05, density=1.0),
+                         stepping=Stepping(pressure_solver=solver))
         x, y = f.points.T
         f.u = np.column_stack([np.sin(2 * np.pi * y / 1.5), np.cos(2 * np.pi * x)]) + 0.05 * rng.normal(size=(f.n, 2))
         for _ in range(4):
@@ -147,7 +147,7 @@ def test_fourier_solves_agree_with_the_sparse_ones_on_a_periodic_box():
     np.testing.assert_allclose(spectral.u, direct.u, atol=1e-10)
     np.testing.assert_allclose(spectral.p, direct.p, atol=1e-8 * np.abs(direct.p).max())
     with pytest.raises(ValueError, match="periodic on both axes"):
-        LatticeFluid(Box(1.0, 1.0, periodic=(True, False)), nx=8, pressure_solver="spectral")
+        LatticeFluid(Box(1.0, 1.0, periodic=(True, False)), nx=8, stepping=Stepping(pressure_solver="spectral"))
 
 
 def test_krylov_pressure_agrees_with_the_direct_solve():
@@ -170,7 +170,7 @@ def test_momentum_is_kept_in_a_periodic_box():
 
 
 def test_a_closed_box_only_loses_energy():
-    f = LatticeFluid(Box(1.0, 1.0), nx=24, viscosity=1e-3, density=1.0)
+    f = LatticeFluid(Box(1.0, 1.0), nx=24, liquid=Liquid(viscosity=1e-3, density=1.0))
     x, y = f.points.T
     # a vortex that vanishes at the walls
     f.u = np.column_stack([np.sin(np.pi * x) ** 2 * np.sin(2 * np.pi * y),
@@ -223,8 +223,8 @@ def test_corrections_leave_the_field_closer_to_the_body_s_velocity():
 
     slip, div = [], []
     for corrections in (0, 1, 2, 4, 8):
-        f = LatticeFluid(Box(1.0, 1.0, periodic=(True, True)), nx=32, viscosity=1e-3, density=1.0,
-                         forcing_corrections=corrections)
+        f = LatticeFluid(Box(1.0, 1.0, periodic=(True, True)), nx=32, liquid=Liquid(viscosity=1e-3, density=1.0),
+                         stepping=Stepping(forcing_corrections=corrections))
         disc = Disc(f)
         f.step(0.01, disc)
         slip.append(np.abs(f.u[disc.mask] - [1.0, 0.0]).max())
@@ -240,9 +240,9 @@ def test_corrections_leave_the_field_closer_to_the_body_s_velocity():
     (lambda: Box(1.0, 1.0, wall_velocity={"front": 1.0}), "sides"),
     (lambda: LatticeFluid(Box(1.0, 1.0), nx=2), "4 x 4"),
     (lambda: LatticeFluid(Box(1.0, 2.0), nx=8, ny=8), "square"),
-    (lambda: LatticeFluid(Box(1.0, 1.0), nx=8, viscosity=-1.0), "viscosity"),
+    (lambda: LatticeFluid(Box(1.0, 1.0), nx=8, liquid=Liquid(viscosity=-1.0)), "viscosity"),
     (lambda: LatticeFluid(Box(1.0, 1.0), nx=8).step(np.nan), "dt"),
-    (lambda: LatticeFluid(Box(1.0, 1.0), nx=8, forcing_corrections=-1), "forcing_corrections"),
+    (lambda: LatticeFluid(Box(1.0, 1.0), nx=8, stepping=Stepping(forcing_corrections=-1)), "forcing_corrections"),
     (lambda: LatticeFluid(Box(1.0, 1.0, wall_velocity={"top": 1.0}), nx=8).step(0.01, object()), "walls at rest"),
     (lambda: LatticeFluid(Box(1.0, 1.0), nx=8).move_walls({"front": 1.0}), "sides"),
 ])

@@ -7,7 +7,7 @@ import pytest
 from core.jellyfish import default_config, default_creature, simulate_cycle, simulate_cycles
 from core.jellyfish.bell import BellMap, Creature, SolidBell
 from core.jellyfish.evaluation import Cancelled
-from core.jellyfish.fluid_box import Box
+from core.jellyfish.fluid_box import Box, Liquid
 from core.jellyfish.particle_fluid import LatticeFluid
 from core.jellyfish.waters import WATERS
 
@@ -53,7 +53,7 @@ def test_a_bell_that_does_not_deform_does_not_move_over_three_cycles():
 def test_a_closed_box_keeps_its_volume_and_momentum():
     """Walls all round: a swirl with no net momentum keeps none (the walls push back on both sides
     alike) and stays divergence-free; the box holds as much fluid as it did."""
-    f = LatticeFluid(Box(1.0, 1.0), nx=32, viscosity=1e-4, density=1.0)
+    f = LatticeFluid(Box(1.0, 1.0), nx=32, liquid=Liquid(viscosity=1e-4, density=1.0))
     x, y = f.points.T
     rng = np.random.default_rng(0)
     swirl = np.column_stack([np.sin(np.pi * x) ** 2 * np.sin(2 * np.pi * y),
