@@ -1,6 +1,8 @@
 """The scene camera as Cycles frames it: field of view fitted to the sensor, lens shift, and the
 render border's window of pixels."""
 
+from typing import NamedTuple
+
 import numpy as np
 
 SUPPORTED = ("PERSP", "ORTHO")
@@ -42,12 +44,20 @@ def image_shift(cam, width, height):
     return 2 * half * cam.shift_x, 2 * half * cam.shift_y
 
 
-def render_window(rd, width, height):
-    """(left, bottom, width, height) in pixels of what a render asks for: the render border's
-    pixels when one is on (as Blender rounds it: float32 fractions of the frame, truncated), else
-    the whole width x height frame."""
+class Window(NamedTuple):
+    """A rectangle of a frame in pixels, from its bottom left."""
+
+    left: int
+    bottom: int
+    width: int
+    height: int
+
+
+def render_window(rd, width, height) -> Window:
+    """The pixels a render asks for: the render border's when one is on (as Blender rounds it:
+    float32 fractions of the frame, truncated), else the whole width x height frame."""
     if not rd.use_border:
-        return 0, 0, width, height
+        return Window(0, 0, width, height)
     edge = [int(np.float32(f) * np.float32(size)) for f, size in ((rd.border_min_x, width), (rd.border_max_x, width),
                                                                   (rd.border_min_y, height), (rd.border_max_y, height))]
-    return edge[0], edge[2], max(edge[1] - edge[0], 0), max(edge[3] - edge[2], 0)
+    return Window(edge[0], edge[2], max(edge[1] - edge[0], 0), max(edge[3] - edge[2], 0))

@@ -61,12 +61,15 @@ class FrameTracer:
         scene = depsgraph.scene
         settings = scene.deformrt
         t0 = time.perf_counter()
-        (self.scene, materials, slots, uvs, shading, self.pass_index, self.kept, self.warnings, hidden,
-         self.holdout) = scene_arrays(depsgraph, settings.render_layered)
+        read = scene_arrays(depsgraph, settings.render_layered)
+        self.scene, self.pass_index, self.kept, self.warnings, self.holdout = (
+            read.scene, read.pass_index, read.kept, read.warnings, read.holdout)
         # Ray Visibility off for the camera, shadows, glossy and transmission rays: None where all are on
         self._unseen, self._shadowless, self._unreflected, self._unrefracted = (
-            np.array(mask, bool) if any(mask) else None for mask in hidden)
-        self.surfaces = Surfaces.build(self.scene, materials, slots, uvs, shading)  # once for every band
+            np.array(mask, bool) if any(mask) else None
+            for mask in (read.unseen, read.shadowless, read.unreflected, read.unrefracted))
+        # once for every band
+        self.surfaces = Surfaces.build(self.scene, read.materials, read.slots, read.uvs, read.shading)
         self.seconds = {"read_build_s": time.perf_counter() - t0, "trace_s": 0.0}
         m = np.array(scene.camera.matrix_world)
         cam = scene.camera.data

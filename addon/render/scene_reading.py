@@ -2,12 +2,14 @@
 ones layered, with their global normals and probe distances), its materials, UVs and shading
 normals, and the ray scenes kept with Persistent Data."""
 
+from dataclasses import dataclass, field
+
 import numpy as np
 
 from ...core.geometry.cache import Cache
 from ...core.geometry.keys import digest
 from ...core.geometry.vectors import inverse3
-from ...core.layering.probes import body_probes
+from ...core.layering.probes import BodyParts, body_probes
 from ...core.render.layered_trace import LayeredScene
 from ...core.render.mesh_cleaning import finite_part
 from ..io import mesh_io
@@ -73,24 +75,56 @@ def layered_scene(objects, layers, normals, probe, offset, keep=False):
     return made, False
 
 
-def scene_arrays(depsgraph, layered=True):
-    """(LayeredScene, materials, face slots, face UVs, corner normals, pass indices, whether the
-    LayeredScene was kept from the last render: ``layered_scene``, what it left out to say so:
-    ``finite_part``, per object whether camera rays pass through it, whether it casts no shadow,
-    whether reflected and refracted rays pass through it; whether it is a holdout) of the meshes
-    the depsgraph shows, in world space: per object the Materials of its slots, each triangle's
-    slot, for textured materials its corners' UVs, its corners' shading normals as Blender
-    gives them (None for a mesh smooth all over), and its pass index. Instances are drawn as
-    they are, outside the layering. Without ``layered`` (plain ray tracing) the global
-    normals, body parts and probe distances that only layering uses are not read."""
-    objects, layers, normals, materials, slots, uvs, shading, pass_index, warnings = ([] for _ in range(9))
-    unseen, shadowless, unreflected, unrefracted, holdout = [], [], [], [], []
+@dataclass
+class SceneRead:
+    """What a render reads of its depsgraph, per object in the LayeredScene's order: the Materials
+    of its slots, each triangle's slot (None with one slot), its triangles' corner UVs and shading
+    normals (None where not needed), its pass index, whether it is a holdout and its Ray
+    Visibility (per object: camera rays pass through it, it casts no shadow, it is not seen in
+    reflections, nor through refraction); whether the LayeredScene was kept from the last render
+    (``layered_scene``) and what was left out, said (``finite_part``)."""
+
+    scene: LayeredScene = None
+    kept: bool = False
+    materials: list = field(default_factory=list)
+    slots: list = field(default_factory=list)
+    uvs: list = field(default_factory=list)
+    shading: list = field(default_factory=list)
+    pass_index: list = field(default_factory=list)
+    holdout: list = field(default_factory=list)
+    unseen: list = field(default_factory=list)
+    shadowless: list = field(default_factory=list)
+    unreflected: list = field(default_factory=list)
+    unrefracted: list = field(default_factory=list)
+    warnings: list = field(default_factory=list)
+
+    def add(self, obj, a, mats) -> None:
+        """One object's materials, surface arrays and switches."""
+        self.materials.append(mats)
+        self.slots.append(a.triangle_material if len(mats) > 1 else None)
+        self.uvs.append(a.triangle_uv)
+        self.shading.append(a.triangle_normals)
+        self.pass_index.append(obj.pass_index)  # read now: an instance's object lasts while it is iterated
+        self.unseen.append(not obj.visible_camera)
+        self.shadowless.append(not obj.visible_shadow)
+        self.unreflected.append(not obj.visible_glossy)
+        self.unrefracted.append(not obj.visible_transmission)
+        self.holdout.append(bool(obj.is_holdout))
+
+
+def scene_arrays(depsgraph, layered=True) -> SceneRead:
+    """The meshes the depsgraph shows, in world space, read into a SceneRead: a LayeredScene of
+    them (tagged ones layered) and per object what shades it. Instances are drawn as they are,
+    outside the layering. Without ``layered`` (plain ray tracing) the global normals, body parts
+    and probe distances that only layering uses are not read."""
+    read = SceneRead()
+    objects, layers, normals = [], [], []
     settings = depsgraph.scene.deformrt
     parts = None
     for obj, a, outside, mats in meshes(depsgraph):
         a, lost = finite_part(a)
         if lost:
-            warnings.append(f"{obj.name}: {lost} triangles at no finite position (NaN or infinite) left out")
+            read.warnings.append(f"{obj.name}: {lost} triangles at no finite position (NaN or infinite) left out")
         if not len(a.triangles):
             continue
         role = "NONE" if outside else obj.deformrt.role
@@ -101,16 +135,7 @@ def scene_arrays(depsgraph, layered=True):
         n = mesh_io.read_point_vectors(obj, GLOBAL_NORMAL_ATTRIBUTE, depsgraph) if layered and role != "NONE" else None
         # stored in object space; normals turn with the inverse transpose
         normals.append(None if n is None or len(n) != len(a.vertices) else n @ inverse3(a.matrix_world[:3, :3]))
-        materials.append(mats)
-        slots.append(a.triangle_material if len(mats) > 1 else None)
-        uvs.append(a.triangle_uv)
-        shading.append(a.triangle_normals)
-        pass_index.append(obj.pass_index)  # read now: an instance's object lasts while it is iterated
-        unseen.append(not obj.visible_camera)
-        shadowless.append(not obj.visible_shadow)
-        unreflected.append(not obj.visible_glossy)
-        unrefracted.append(not obj.visible_transmission)
-        holdout.append(bool(obj.is_holdout))
+        read.add(obj, a, mats)
         if layered and role == "BODY":
             # no vertex groups: reading them adds a modifier, and a render must not write to the scene
             parts, _ = body_parts(obj, settings.scheme, a.vertices, groups=False, depsgraph=depsgraph)
@@ -120,9 +145,9 @@ def scene_arrays(depsgraph, layered=True):
     probe = 0.0
     if layered:
         top = max((lay for lay in layers if lay is not None), default=0)
-        probe = body_probes(objects, layers, probe_distances(settings, parts is not None), parts, scheme,
+        probe = body_probes(objects, layers, probe_distances(settings, parts is not None),
+                            None if parts is None else BodyParts(parts, scheme),
                             traced=[lay is not None and lay < top for lay in layers], gap=settings.offset)
-    made, kept = layered_scene(objects, layers, normals, probe, settings.offset,
-                               keep=depsgraph.scene.render.use_persistent_data)
-    return made, materials, slots, uvs, shading, pass_index, kept, warnings, (unseen, shadowless, unreflected,
-                                                                              unrefracted), holdout
+    read.scene, read.kept = layered_scene(objects, layers, normals, probe, settings.offset,
+                                          keep=depsgraph.scene.render.use_persistent_data)
+    return read

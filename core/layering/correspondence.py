@@ -143,6 +143,8 @@ class SurfaceSearch(NamedTuple):
 # Points per piece of the candidates' test: about 2 MB of float32 temporaries, what one core's
 # cache holds (Fig 4.12's 102k points: 190 -> 130 ms; pieces of 512 pay numpy's per-call cost).
 _SEARCH_BLOCK = 2048
+# Points a thread takes at a time.
+_CHUNK = 4096
 
 # A triangle whose longest edge is this many times the median's is "big": a point can be nearest
 # to it with none of its corners among the point's nearest vertices (a floor under a figure).
@@ -223,8 +225,8 @@ def _nearer_big(points32, best_d2, search, block: int = 512):
     return better, pick
 
 
-def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
-                       chunk: int = 4096, search: SurfaceSearch | None = None, near=None) -> BodyCorrespondence:
+def nearest_on_surface(points, vertices, faces, search: SurfaceSearch | None = None, near=None,
+                       k: int = 2) -> BodyCorrespondence:
     """Nearest point on a triangle surface for each point.
 
     With fcpw (bundled) the nearest triangle is found exactly by its BVH. Without, candidates
@@ -240,8 +242,8 @@ def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
     n = len(points)
     if not n:
         return BodyCorrespondence(np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0))
-    if search is None or search.incident.shape[1] != ring_width:
-        search = surface_search(vertices, faces, ring_width)
+    if search is None:
+        search = surface_search(vertices, faces)
     best_t = np.zeros(n, dtype=np.int64)
     best_w = np.zeros((n, 3))
     best_d = np.zeros(n)
@@ -254,7 +256,7 @@ def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
             best_w[sl] = closest_on_table(points[sl], rows(search.exact, picks[sl]))[1]
             best_d[sl] = norms(points[sl] - np.einsum("ij,ijk->ik", best_w[sl], rows(vertices, rows(faces, picks[sl]))))
 
-        map_chunks(solve, n, chunk, block=_SEARCH_BLOCK)
+        map_chunks(solve, n, _CHUNK, block=_SEARCH_BLOCK)
         return BodyCorrespondence(picks, best_w, best_d)
     if near is None:
         _, near = search.tree.query(points, k=min(k, search.tree.n), workers=tree_workers(len(points)))
@@ -281,7 +283,7 @@ def nearest_on_surface(points, vertices, faces, k: int = 2, ring_width: int = 8,
 
     # numpy releases the GIL on these array sizes: slices run side by side on the cores, each
     # in pieces whose (points x candidates) temporaries stay in its cache
-    map_chunks(run, n, chunk, block=_SEARCH_BLOCK)
+    map_chunks(run, n, _CHUNK, block=_SEARCH_BLOCK)
     return BodyCorrespondence(best_t, best_w, best_d)
 
 

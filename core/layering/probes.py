@@ -11,6 +11,7 @@ object)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -105,19 +106,27 @@ def widen(per_segment, distance, part, given, gap) -> np.ndarray:
     return per
 
 
-def body_probes(objects, layers, given=None, parts=None, scheme=None, traced=None, gap=None):
+class BodyParts(NamedTuple):
+    """The body's part of each of its vertices, and the segmentation scheme they follow (None:
+    parts numbered by the caller, no scheme)."""
+
+    ids: np.ndarray
+    scheme: str | None = None
+
+
+def body_probes(objects, layers, given=None, parts: BodyParts | None = None, traced=None, gap=None):
     """l_s per vertex as the resolve takes it: ``given`` (one distance, or one per part with
     NaN where the part keeps its default) or else the body's radius (half its thickness
-    straight through), each part's median when the body has ``parts`` (one id per body vertex)
-    and the radius under each vertex when it has none; every vertex of the body and the
-    garments takes the value of the part of its nearest body vertex. With the ``scheme`` the
-    parts follow, a garment whose hem goes round both legs (a skirt) takes the skirt
-    segment's l_s on the legs, as in the resolve (BodyFacts.probe_lengths: its linked parts'
-    farthest reach, or its override). Objects outside the layering, or all of them when there
-    is no body, keep the default (None), as do those whose ``traced`` (one bool per object) is
-    False: the outermost layer, which nothing is worn over, sends no probe. With parts, each part
-    keeping its default widens as the resolve's does (``widen``: to its lower layers' farthest
-    point plus ``gap``, default the resolve's default offset)."""
+    straight through), each part's median when the body has ``parts`` and the radius under
+    each vertex when it has none; every vertex of the body and the garments takes the value
+    of the part of its nearest body vertex. With the scheme the parts follow, a garment whose
+    hem goes round both legs (a skirt) takes the skirt segment's l_s on the legs, as in the
+    resolve (BodyFacts.probe_lengths: its linked parts' farthest reach, or its override).
+    Objects outside the layering, or all of them when there is no body, keep the default
+    (None), as do those whose ``traced`` (one bool per object) is False: the outermost layer,
+    which nothing is worn over, sends no probe. With parts, each part keeping its default
+    widens as the resolve's does (``widen``: to its lower layers' farthest point plus ``gap``,
+    default the resolve's default offset)."""
     if given is not None and np.ndim(given) == 0:
         return float(given)
     if given is not None and parts is None:
@@ -127,8 +136,8 @@ def body_probes(objects, layers, given=None, parts=None, scheme=None, traced=Non
         return None
     facts = body_facts(*objects[body])  # kept: the next frame of a still body asks again
     traced = [True] * len(objects) if traced is None else traced
-    parts = None if parts is None else np.asarray(parts, np.int64)
-    scheme = None if scheme is None else get_scheme(scheme)
+    scheme = None if parts is None or parts.scheme is None else get_scheme(parts.scheme)
+    parts = None if parts is None else np.asarray(parts.ids, np.int64)
     # a body vertex is its own nearest point, on the part its groups give it
     found = [None if lay is None or not go else None if i == body else nearest_part(facts, v, f, parts, scheme)
              for i, ((v, f), lay, go) in enumerate(zip(objects, layers, traced, strict=True))]

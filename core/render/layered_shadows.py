@@ -78,7 +78,7 @@ class ShadowRays:
         if pending:
             rays, o, d, dist, t, face, bary = (np.concatenate(x) for x in zip(*pending, strict=True))
             known = RayHits(t, face, bary, self.scene.normals_of)
-            out[rays] = self.first_visible(o, d, first=known, scaled=True).t < dist
+            out[rays] = self.shown_from(known, o, d).t < dist
         return out
 
     def _clear_past_pokes(self, o, d, dist, own):

@@ -12,8 +12,11 @@ import numpy as np
 
 from ..geometry.normals import vertex_normals
 from ..geometry.vectors import box, rows, unit
-from ..rays.scene import RayScene, unit_rays
+from ..rays.scene import RayHits, RayScene, unit_rays
 from .layered_shadows import ShadowRays
+
+# a ray goes on past at most this many hits a higher layer covers
+MAX_SKIPS = 16
 
 
 @dataclass
@@ -192,11 +195,9 @@ class LayeredScene(ShadowRays):
                 self._uncovered = self._scene_of(ids)
         return self._uncovered or None
 
-    def first_visible(self, origins, directions, layered=True, max_skips=16, min_dist=0.0, first=None,
-                      scaled=False, unseen=None) -> Visible:
+    def first_visible(self, origins, directions, layered=True, min_dist=0.0, scaled=False, unseen=None) -> Visible:
         """The hit each ray shows; with ``layered`` False, plain ray tracing. ``min_dist``
-        skips what lies closer (a ray leaving a surface starts on it). ``first``: the rays'
-        first hits (``min_dist`` 0) when the caller has traced them already. ``scaled``: as in
+        skips what lies closer (a ray leaving a surface starts on it). ``scaled``: as in
         RayScene (distances in units of each direction's length), for callers whose rays are
         of length one already. ``unseen``: a bool per object these rays go through (an object
         hidden from the camera): they are traced against the others only, so a surface on one
@@ -204,8 +205,18 @@ class LayeredScene(ShadowRays):
         trace = self.scene if unseen is None or not np.any(unseen) else self._seen_part(unseen)
         # of length one once: every later round goes on along these, traced as they are
         o, d = (np.asarray(origins, float), np.asarray(directions, float)) if scaled else unit_rays(origins, directions)
+        return self._shown(trace, o, d, np.broadcast_to(np.asarray(min_dist, float), (len(o),)), layered)
+
+    def shown_from(self, first: RayHits, o, d) -> Visible:
+        """``first_visible`` (layered) of rays of length one whose first hits from their origins
+        the caller has traced already."""
+        return self._shown(self.scene, o, d, np.zeros(len(o)), True, first)
+
+    def _shown(self, trace, o, d, lo, layered, first=None) -> Visible:
+        """The hit each ray o + t d (t >= lo) shows, traced on ``trace``: past any hit a higher
+        layer covers, for at most MAX_SKIPS of them (a ray still going on after that shows
+        nothing); ``first``, its first hits if known."""
         n = len(o)
-        lo = np.broadcast_to(np.asarray(min_dist, float), (n,))
         if not n:
             return Visible(np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2)),
                            np.zeros(0, bool), 0)
@@ -215,7 +226,7 @@ class LayeredScene(ShadowRays):
         live = None
         travelled = 0.0  # how far each live ray's origin has moved on
         cover = None  # (t, face, bary) of the covering layer met just behind an ignored hit
-        for _ in range(max_skips + 1):
+        for _ in range(MAX_SKIPS + 1):
             if first is not None:
                 hits, first = first, None
             else:
@@ -234,7 +245,7 @@ class LayeredScene(ShadowRays):
             t = np.where(hits.face >= 0, hits.t + travelled, np.inf)
             if result is None:
                 # the first round writes every ray at once (rays it ignores go on, and are
-                # written over when they end; any still going after max_skips show nothing)
+                # written over when they end; any still going after MAX_SKIPS show nothing)
                 result = Visible(t, obj, face, hits.bary, np.zeros(n, bool), 0)
                 if len(again):
                     result.t[again], result.obj[again], result.face[again], result.bary[again] = np.inf, -1, -1, 0.0

@@ -582,16 +582,16 @@ def test_probe_distance_follows_the_body_parts_and_their_overrides(extension):
     shell = trimesh.creation.icosphere(subdivisions=3, radius=0.05)
     shell_v = shell.vertices * [1.0, 1.3, 1.0] + shift
     objects = [(body_v, body_f), (big.vertices * 1.2, big.faces), (shell_v, shell.faces)]
-    probes = rule.body_probes(objects, [0, 1, 2], parts=parts)
+    probes = rule.body_probes(objects, [0, 1, 2], parts=rule.BodyParts(parts))
     np.testing.assert_allclose(probes[1], 0.1, rtol=0.01)
     np.testing.assert_allclose(probes[2], 0.04, rtol=0.01)
     np.testing.assert_allclose(probes[0][parts == 1], 0.04, rtol=0.01)
     np.testing.assert_allclose(probes[0][parts == 0], 0.1, rtol=0.01)
     # what sends no probe (the outermost layer) is not looked up: the default
-    skipped = rule.body_probes(objects, [0, 1, 2], parts=parts, traced=[True, True, False])
+    skipped = rule.body_probes(objects, [0, 1, 2], parts=rule.BodyParts(parts), traced=[True, True, False])
     assert skipped[2] is None
     np.testing.assert_array_equal(skipped[1], probes[1])
-    probes = rule.body_probes(objects, [0, 1, 2], given=np.array([np.nan, 0.02]), parts=parts)
+    probes = rule.body_probes(objects, [0, 1, 2], given=np.array([np.nan, 0.02]), parts=rule.BodyParts(parts))
     np.testing.assert_allclose(probes[1], 0.1, rtol=0.01)  # NaN: the part keeps its radius
     np.testing.assert_array_equal(probes[2], 0.02)
     with pytest.raises(ValueError, match="need the body's parts"):
@@ -600,8 +600,8 @@ def test_probe_distance_follows_the_body_parts_and_their_overrides(extension):
     # moved in place onto the big ball takes the big ball's radius; one part for the whole body,
     # the median radius of both balls
     shell_v -= shift
-    np.testing.assert_allclose(rule.body_probes(objects, [0, 1, 2], parts=parts)[2], 0.1, rtol=0.01)
-    one = rule.body_probes(objects, [0, 1, 2], parts=np.zeros_like(parts))
+    np.testing.assert_allclose(rule.body_probes(objects, [0, 1, 2], parts=rule.BodyParts(parts))[2], 0.1, rtol=0.01)
+    one = rule.body_probes(objects, [0, 1, 2], parts=rule.BodyParts(np.zeros_like(parts)))
     np.testing.assert_array_equal(one[2], np.median(one[0]))
     assert 0.04 < one[2][0] < 0.1
 
@@ -617,18 +617,18 @@ def test_a_skirt_probes_as_far_as_the_resolve_takes_it_and_its_override_counts(e
 
     rule = importlib.import_module(f"{extension.__name__}.core.layering.probes")
     body, parts = lower_body()
-    skirt = mesh(*tube(0.18, 0.2, 0.62, n_around=64, n_along=24))
-    trouser = mesh(*tube(0.085, 0.05, 0.49, n_around=32, n_along=12))
+    skirt = mesh(*tube(0.18, 0.2, 0.62, grid=(64, 24)))
+    trouser = mesh(*tube(0.085, 0.05, 0.49, grid=(32, 12)))
     trouser.apply_translation([-0.09, 0.0, 0.0])
     objects = [(body.vertices, body.faces), (skirt.vertices, skirt.faces), (trouser.vertices, trouser.faces)]
-    probes = rule.body_probes(objects, [0, 1, 2], parts=parts, scheme="S5")
+    probes = rule.body_probes(objects, [0, 1, 2], parts=rule.BodyParts(parts, "S5"))
     on_legs = np.isin(parts[cKDTree(body.vertices).query(skirt.vertices)[1]], (3, 4))
     assert on_legs.sum() > len(on_legs) / 3
     np.testing.assert_allclose(probes[1][on_legs], 0.15, rtol=0.05)
     np.testing.assert_allclose(probes[2][trouser.vertices[:, 2] < 0.45], 0.07, rtol=0.05)
     given = np.full(6, np.nan)
     given[5] = 0.03  # S5's skirt
-    probes = rule.body_probes(objects, [0, 1, 2], given=given, parts=parts, scheme="S5")
+    probes = rule.body_probes(objects, [0, 1, 2], given=given, parts=rule.BodyParts(parts, "S5"))
     np.testing.assert_array_equal(probes[1][on_legs], 0.03)
     np.testing.assert_allclose(probes[2][trouser.vertices[:, 2] < 0.45], 0.07, rtol=0.05)
 

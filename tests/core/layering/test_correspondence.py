@@ -115,7 +115,7 @@ def test_global_normals_of_a_sphere_point_radially():
 
 @pytest.mark.parametrize("radius", [0.05, 1.0, 300.0])
 def test_local_radius_of_a_cylinder_is_its_radius(radius):
-    v, f = tube(radius, 0.0, 10 * radius, n_around=64, n_along=40, capped=True)
+    v, f = tube(radius, 0.0, 10 * radius, grid=(64, 40), capped=True)
     r = local_radius(v, f)
     # away from the caps the chord through the axis is the diameter (the polygon's, 0.1% short)
     side = (v[:, 2] > radius) & (v[:, 2] < 9 * radius)
@@ -131,11 +131,12 @@ def test_nearest_point_over_many_pieces_on_two_threads_matches_trimesh(monkeypat
 
     monkeypatch.setenv("DEFORMRT_THREADS", "2")
     monkeypatch.setattr(corr, "_SEARCH_BLOCK", 97)
+    monkeypatch.setattr(corr, "_CHUNK", 64)
     v, f = bumpy_body(subdivisions=2)
     rng = np.random.default_rng(7)
     pts = rng.normal(size=(3001, 3))
     pts *= rng.uniform(0.8, 1.4, (3001, 1)) / np.linalg.norm(pts, axis=1, keepdims=True)
-    ours = nearest_on_surface(pts, v, f, chunk=64, search=searched(kind, v, f))
+    ours = nearest_on_surface(pts, v, f, search=searched(kind, v, f))
     _, ref_d, _ = trimesh.proximity.closest_point(trimesh.Trimesh(v, f, process=False), pts)
     # a point on the surface as far as the nearest is a nearest point (at ties, any of them)
     np.testing.assert_allclose(np.linalg.norm(pts - ours.points(v, f), axis=1), ref_d, atol=tol)

@@ -4,7 +4,7 @@ import numpy as np
 import trimesh
 
 from core.layering import probes, resolve_layers
-from sample_scenes.shapes import tube
+from sample_scenes.shapes import Folds, tube
 from tests.core.layered_cases import capped_cylinder, mesh
 
 
@@ -25,7 +25,7 @@ def _loose_trousers(seed=0):
     rng = np.random.default_rng(seed)
     out = []
     for r in (0.072, 0.075):
-        v, f = tube(r, 0.05, 0.45, n_around=48, n_along=16, noise=0.006, rng=rng, min_radius=0.068)
+        v, f = tube(r, 0.05, 0.45, grid=(48, 16), folds=Folds(0.006, rng, floor=0.068))
         out.append(mesh(v + [0.09, 0, 0], f))
     return out
 
@@ -63,13 +63,14 @@ def test_the_render_engine_reaches_as_far_as_the_resolve():
     resolved = resolve_layers(body, trousers, body_segments=parts, scheme="S5")
     reach = resolved.stats["probe_distance"]
     objects = [(body.vertices, body.faces)] + [(t.vertices, t.faces) for t in trousers]
-    engine = probes.body_probes(objects, [0, 1, 2], parts=parts, scheme="S5", traced=[True, True, False],
+    on_s5 = probes.BodyParts(parts, "S5")
+    engine = probes.body_probes(objects, [0, 1, 2], parts=on_s5, traced=[True, True, False],
                                 gap=resolved.stats["offset"])
     np.testing.assert_array_equal(engine[1], np.asarray(reach)[resolved.segments[0]])
     assert engine[1].min() > 1.3 * resolved.stats["probe_distance"][3]  # widened past the leg's radius
     np.testing.assert_allclose(engine[0][parts == 3], reach[3], rtol=1e-9)
     np.testing.assert_allclose(engine[0][parts == 0], reach[0], rtol=1e-9)
-    given = probes.body_probes(objects, [0, 1, 2], given=np.full(len(reach), 0.02), parts=parts, scheme="S5",
+    given = probes.body_probes(objects, [0, 1, 2], given=np.full(len(reach), 0.02), parts=on_s5,
                                traced=[True, True, False])
     np.testing.assert_array_equal(given[1], 0.02)
 
