@@ -151,7 +151,7 @@ def main(argv=None):
 
     n_big = 224 if not args.quick else 100
     body = mesh(*tube_body(n_big))
-    calm = [mesh(*tube(0.16 + 0.01 * k, 0.05, 0.55 - 0.01 * k, n_around=n_big, n_along=n_big // 2)) for k in range(4)]
+    calm = [mesh(*tube(0.16 + 0.01 * k, 0.05, 0.55 - 0.01 * k, grid=(n_big, n_big // 2))) for k in range(4)]
     run_resolve(body, calm)  # the body's facts (normals, radii, search tree) are kept for the next calls
 
     def warm(garments):
@@ -163,10 +163,10 @@ def main(argv=None):
     resolve_layers(body, calm)
     again = min(resolve_layers(body, calm).stats["total_s"] for _ in range(3))  # what was found is kept
     moved = max(float(np.abs(m).max()) for m in res.moved)
-    alone = [mesh(*tube(0.17, 0.05, 0.55, n_around=2 * n_big, n_along=n_big))]
+    alone = [mesh(*tube(0.17, 0.05, 0.55, grid=(2 * n_big, n_big)))]
     one, one_secs = warm(alone)
     # four sleeves at separate heights, 4 cm apart along the body: near each other by their boxes
-    apart = [mesh(*tube(0.17, 0.02 + 0.15 * k, 0.13 + 0.15 * k, n_around=n_big, n_along=n_big // 2)) for k in range(4)]
+    apart = [mesh(*tube(0.17, 0.02 + 0.15 * k, 0.13 + 0.15 * k, grid=(n_big, n_big // 2))) for k in range(4)]
     spaced, spaced_secs = warm(apart)
     nothing = (f"Already-correct scene ({len(body.faces) + sum(len(g.faces) for g in calm):,} triangles, four "
                f"concentric garments 1 cm apart), warm (best of 3): resolve {secs:.3f} s (correspondence "

@@ -63,12 +63,23 @@ def _fold_noise(v, normals, rng, amplitude, wavelength=0.12, waves=6):
     return v + normals * (amplitude * out)[:, None]
 
 
-def dress(figure: str, layers, seed: int = 0, voxel: float = 0.008, frames: int = 8, fold_m: float = 0.004,
-          gap_m: float = 0.003, scene_name: str = "Dressed"):
+@dataclass(frozen=True)
+class Tailoring:
+    """How garments are made: the voxel of the body's envelope they are cut from (m), the cloth
+    frames they are draped for, their folds' amplitude and the gap they keep from the body (m)."""
+
+    voxel: float = 0.008
+    frames: int = 8
+    fold_m: float = 0.004
+    gap_m: float = 0.003
+
+
+def dress(figure: str, layers, seed: int = 0, tailoring: Tailoring = Tailoring(), scene_name: str = "Dressed"):
     """Replace the scene's contents with a figure wearing ``layers`` (inner to outer).
 
     Returns (body, rig, garments). Deterministic for a given seed.
     """
+    voxel, frames, fold_m, gap_m = tailoring.voxel, tailoring.frames, tailoring.fold_m, tailoring.gap_m
     rng = np.random.default_rng(seed)
     scene = studio.empty_scene(scene_name)
     col = scene.collection
@@ -112,11 +123,11 @@ def _skin_to(obj, fig, rig):
 
 
 def fig_4_12(seed: int = 0, voxel: float = 0.0070, frames: int = 8):
-    return dress("wooden", FIG_4_12, seed, voxel, frames, scene_name="Fig 4.12")
+    return dress("wooden", FIG_4_12, seed, Tailoring(voxel, frames), scene_name="Fig 4.12")
 
 
 def fig_4_13(seed: int = 0, voxel: float = 0.010, frames: int = 8):
-    return dress("stocky", FIG_4_13, seed, voxel, frames, scene_name="Fig 4.13")
+    return dress("stocky", FIG_4_13, seed, Tailoring(voxel, frames), scene_name="Fig 4.13")
 
 
 def save(path, glb: bool = False) -> None:
@@ -156,7 +167,7 @@ def pose(rig, rotations: dict, frame: int) -> None:
 
 def posed(seed: int = 0, voxel: float = 0.010, frames: int = 8):
     """(c) A dressed figure in two poses (frames 1 and 2) for the posed pipeline."""
-    body, rig, made = dress("wooden", POSED_LAYERS, seed, voxel, frames, scene_name="Posed")
+    body, rig, made = dress("wooden", POSED_LAYERS, seed, Tailoring(voxel, frames), scene_name="Posed")
     scene = bpy.context.scene
     pose(rig, {}, 1)
     pose(rig, POSE_2, 2)

@@ -190,10 +190,10 @@ def test_mesh_io_reads_evaluated_modifiers(extension, clean_scene):
 
 
 def test_cli_info_inside_blender(extension, capsys):
-    assert importlib.import_module(extension.__name__ + ".addon.cli.commands").main(["info"]) == 0
+    assert importlib.import_module(extension.__name__ + ".sample_scenes.cli.commands").main(["info"]) == 0
     out = capsys.readouterr().out
     assert "Embree (embreex)" in out and "4.5" in out
-    assert importlib.import_module(extension.__name__ + ".addon.cli.commands").main(["no-such-command"]) == 2
+    assert importlib.import_module(extension.__name__ + ".sample_scenes.cli.commands").main(["no-such-command"]) == 2
 
 
 def test_cli_from_plain_python_runs_the_installed_extension(extension, tmp_path):

@@ -76,13 +76,13 @@ def test_builders_are_deterministic(ext):
     coarse = (dressed.Layer("pants", 0.012), dressed.Layer("skirt", 0.010))
     runs = []
     for _ in range(2):
-        body, rig, garments = dressed.dress("stocky", coarse, seed=3, voxel=0.02, frames=3)
+        body, rig, garments = dressed.dress("stocky", coarse, seed=3, tailoring=dressed.Tailoring(voxel=0.02, frames=3))
         runs.append(layers(ext, body, garments))
     for (va, fa), (vb, fb) in zip(*runs, strict=True):
         np.testing.assert_array_equal(fa, fb)
         np.testing.assert_array_equal(va, vb)
     # and another seed gives other folds
-    body, rig, garments = dressed.dress("stocky", coarse, seed=4, voxel=0.02, frames=3)
+    body, rig, garments = dressed.dress("stocky", coarse, seed=4, tailoring=dressed.Tailoring(voxel=0.02, frames=3))
     assert not np.array_equal(layers(ext, body, garments)[1][0], runs[0][1][0])
 
 
@@ -90,7 +90,7 @@ def test_the_skirt_is_found_as_a_skirt(ext):
     dressed = sub(ext, "sample_scenes.dressed")
     seg = sub(ext, "core.layering.segmentation")
     body, rig, garments = dressed.dress("stocky", (dressed.Layer("pants", 0.012), dressed.Layer("skirt", 0.010)),
-                                        seed=0, voxel=0.02, frames=0)
+                                        seed=0, tailoring=dressed.Tailoring(voxel=0.02, frames=0))
     fig = sub(ext, "sample_scenes.figures")
     stick = sub(ext, "sample_scenes.bodies").skin_body(fig.stick_figure())
     parts = seg.segments_from_groups(stick.weights, stick.joint_names, "S5", vertices=stick.vertices)

@@ -47,7 +47,7 @@ def slab_body(size=3.0, thickness=0.4, subdivisions=5):
 
 
 def capped_cylinder(radius, height, center=(0.0, 0.0), n=48):
-    v, f = tube(radius, -height / 2, height / 2, n_around=n, n_along=max(8, int(n * height / (6 * radius))),
+    v, f = tube(radius, -height / 2, height / 2, grid=(n, max(8, int(n * height / (6 * radius)))),
                 capped=True)
     return mesh(v + [center[0], center[1], 0.0], f)
 

@@ -16,7 +16,7 @@ def test_polygon_radius_of_a_square_is_analytic():
 
 def test_clear_of_body_moves_only_points_too_close_and_to_exactly_the_gap():
     rng = np.random.default_rng(0)
-    v, f = tube(1.0, -1.0, 1.0, n_around=256, n_along=64, capped=True)
+    v, f = tube(1.0, -1.0, 1.0, grid=(256, 64), capped=True)
     d = rng.normal(size=(500, 3))
     d[:, 2] = 0
     d /= np.linalg.norm(d, axis=1, keepdims=True)
@@ -31,7 +31,7 @@ def test_clear_of_body_moves_only_points_too_close_and_to_exactly_the_gap():
 
 
 def test_keep_faces_drops_scraps_and_renumbers():
-    v, f = tube(1.0, 0.0, 1.0, n_around=32, n_along=10)
+    v, f = tube(1.0, 0.0, 1.0, grid=(32, 10))
     keep = np.ones(len(v), bool)
     keep[4 * 32:5 * 32] = False  # cut a ring: two tubes remain
     keep[2 * 32 + 5] = False

@@ -166,7 +166,7 @@ def test_tentacles_go_with_the_simulated_water(extension, jelly):
 def test_jellyfish_command_optimises_bakes_and_renders_a_contact_sheet(extension, tmp_path):
     args = ["jellyfish", "--out", str(tmp_path), "--particles", "24", "--population", "2", "--generations", "1",
             "--cycle-frames", "8", "--width", "40", "--height", "56", "--samples", "1"]
-    assert importlib.import_module(extension.__name__ + ".addon.cli.commands").main(args) == 0
+    assert importlib.import_module(extension.__name__ + ".sample_scenes.cli.commands").main(args) == 0
     def tiles(name, width, height):
         img = bpy.data.images.load(str(tmp_path / name))
         assert tuple(img.size) == (4 * width, 2 * height)

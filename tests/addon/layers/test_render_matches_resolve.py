@@ -185,12 +185,12 @@ def _tight_outfit(extension):
     """A capped body and two coarse tight sleeves that dip a few millimetres into it."""
     shapes, io = sub(extension, "sample_scenes.shapes"), sub(extension, "addon.io.mesh_io")
     col = bpy.context.scene.collection
-    body = io.new_mesh_object("Body", *shapes.tube(0.15, 0.0, 0.6, n_around=64, n_along=32, capped=True), col)
+    body = io.new_mesh_object("Body", *shapes.tube(0.15, 0.0, 0.6, grid=(64, 32), capped=True), col)
     body.deformrt.role, body.deformrt.layer = "BODY", 0
     made = []
     for layer, (name, radius, seed) in enumerate((("Leggings", 0.1495, 1), ("Top", 0.1505, 2)), start=1):
-        v, f = shapes.tube(radius, 0.05 * layer, 0.55, n_around=20, n_along=12, noise=0.004,
-                           rng=np.random.default_rng(seed))
+        v, f = shapes.tube(radius, 0.05 * layer, 0.55, grid=(20, 12),
+                           folds=shapes.Folds(0.004, np.random.default_rng(seed)))
         obj = io.new_mesh_object(name, v, f, col)
         obj.deformrt.role, obj.deformrt.layer = "GARMENT", layer
         made.append(obj)

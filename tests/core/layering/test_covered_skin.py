@@ -28,7 +28,7 @@ def test_faces_under_a_sleeve_are_covered_and_those_past_its_hems_are_not(radius
     body = body_tube(n=32)
     bv, bf = np.asarray(body.vertices), np.asarray(body.faces)
     # hems clear of the body's rings, columns never in line with its own: no ray through an edge
-    cloth = tube(radius, 0.21, 0.39, n_around=23, n_along=8)
+    cloth = tube(radius, 0.21, 0.39, grid=(23, 8))
     got = covered_faces(bv, bf, [cloth], 0.03, 0.005)
     np.testing.assert_array_equal(got, _brute(bv, bf, cloth, 0.03, 0.005))
     centre_z = bv[bf].mean(axis=1)[:, 2]
@@ -41,14 +41,14 @@ def test_cloth_out_of_reach_or_deep_inside_covers_nothing():
     body = body_tube(n=32)
     bv, bf = np.asarray(body.vertices), np.asarray(body.faces)
     for radius in (0.2, 0.13):  # 5 cm out with a 3 cm reach; 2 cm in with 5 mm
-        assert not covered_faces(bv, bf, [tube(radius, 0.2, 0.4, n_around=24, n_along=8)], 0.03, 0.005).any()
+        assert not covered_faces(bv, bf, [tube(radius, 0.2, 0.4, grid=(24, 8))], 0.03, 0.005).any()
     assert not covered_faces(bv, bf, [], 0.03, 0.005).any()
 
 
 def test_skin_within_the_margin_of_an_opening_stays():
     body = body_tube(n=32)
     bv, bf = np.asarray(body.vertices), np.asarray(body.faces)
-    cloth = tube(0.152, 0.21, 0.39, n_around=23, n_along=8)
+    cloth = tube(0.152, 0.21, 0.39, grid=(23, 8))
     plain = covered_faces(bv, bf, [cloth], 0.03, 0.005)
     kept_back = covered_faces(bv, bf, [cloth], 0.03, 0.005, margin=0.03)
     assert plain.any() and kept_back.any() and not (kept_back & ~plain).any()

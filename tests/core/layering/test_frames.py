@@ -10,7 +10,7 @@ from core.layering.body_facts import body_facts
 from core.layering.correspondence import BodyCorrespondence
 from core.layering.frame_coherence import HIDE_HOLD
 from core.layering.garment_prep import DRIFT, SWITCH, carried
-from sample_scenes.shapes import tube
+from sample_scenes.shapes import Folds, tube
 from tests.core.layered_cases import body_tube, lower_body, mesh
 
 
@@ -19,7 +19,7 @@ def _trouser_legs(x, seed=0):
     rng = np.random.default_rng(seed)
     out = []
     for r in (0.078, 0.081):
-        v, f = tube(r, 0.1, 0.4, n_around=40, n_along=16, noise=0.006, rng=rng, min_radius=0.074)
+        v, f = tube(r, 0.1, 0.4, grid=(40, 16), folds=Folds(0.006, rng, floor=0.074))
         out.append(mesh(v + [x, 0, 0], f))
     return out
 
@@ -74,12 +74,12 @@ def _dented(dent: bool):
     """A lower sleeve over a tube body and a higher one that, when ``dent``, dips to 1.5 mm off the
     body over a patch: there the lower layer has no room behind it and shows through, so its
     faces are hidden; without the dent nothing is hidden."""
-    v, f = tube(0.17, 0.05, 0.55, n_around=64, n_along=32)
+    v, f = tube(0.17, 0.05, 0.55, grid=(64, 32))
     if dent:
         ang = np.arctan2(v[:, 1], v[:, 0])
         patch = (np.abs(ang) < 0.35) & (np.abs(v[:, 2] - 0.3) < 0.06)
         v[patch, :2] *= 0.1515 / 0.17
-    low = tube(0.16, 0.08, 0.52, n_around=48, n_along=24)
+    low = tube(0.16, 0.08, 0.52, grid=(48, 24))
     return [mesh(*low), mesh(v, f)]
 
 
@@ -108,7 +108,7 @@ def test_a_face_that_crosses_every_other_frame_never_blinks():
 def test_a_previous_result_for_other_meshes_is_not_used(bad):
     body = body_tube()
     frame = _dented(True)
-    other = [mesh(*tube(0.16, 0.08, 0.52, n_around=40 if bad == "count" else 48, n_along=24)), frame[1]]
+    other = [mesh(*tube(0.16, 0.08, 0.52, grid=(40 if bad == "count" else 48, 24))), frame[1]]
     if bad == "faces":
         other[0] = mesh(other[0].vertices, other[0].faces[:-2])
     prev = resolve_layers(body, other)
@@ -167,9 +167,9 @@ def test_a_lift_off_the_body_eases_out_at_its_rate_in_playback():
     from core.layering.body_lift import RATE
 
     body = body_tube(n=48)
-    outer = mesh(*tube(0.175, 0.1, 0.5, n_around=48, n_along=24))
-    sunk = [mesh(*tube(0.13, 0.12, 0.48, n_around=48, n_along=24)), outer]
-    clear = [mesh(*tube(0.16, 0.12, 0.48, n_around=48, n_along=24)), outer]
+    outer = mesh(*tube(0.175, 0.1, 0.5, grid=(48, 24)))
+    sunk = [mesh(*tube(0.13, 0.12, 0.48, grid=(48, 24))), outer]
+    clear = [mesh(*tube(0.16, 0.12, 0.48, grid=(48, 24))), outer]
     first = resolve_layers(body, sunk)
     depth = 0.15 * np.cos(np.pi / 48) - 0.13  # to the 48-gon's flat sides, at most
     assert first.lifts[0].min() > depth

@@ -58,9 +58,9 @@ def test_sleeve_next_to_a_torso_is_not_pushed_into_it():
     body_seg = np.r_[np.zeros(len(torso.vertices), int), np.ones(len(arm.vertices), int)]
     from sample_scenes.shapes import tube
 
-    sv, sf = tube(0.05, -0.25, 0.25, n_around=32, n_along=20)
+    sv, sf = tube(0.05, -0.25, 0.25, grid=(32, 20))
     sleeve = mesh(sv + [0.22, 0, 0], sf)  # layer 1, on the arm
-    jv, jf = tube(0.165, -0.25, 0.25, n_around=64, n_along=20)
+    jv, jf = tube(0.165, -0.25, 0.25, grid=(64, 20))
     jacket = mesh(jv, jf)  # layer 2, on the torso, 1.5 cm from the sleeve
     for segs in (None, body_seg):
         res = resolve_layers(body, [sleeve, jacket], body_segments=segs)
@@ -110,8 +110,8 @@ def test_hem_boundary_pass_tucks_the_lower_layer_in_smoothly():
     from sample_scenes.shapes import tube
 
     body = body_tube()
-    shirt = mesh(*tube(0.175, 0.0, 0.6, n_around=40, n_along=40))
-    jacket = mesh(*tube(0.17, 0.2, 0.6, n_around=40, n_along=27))
+    shirt = mesh(*tube(0.175, 0.0, 0.6, grid=(40, 40)))
+    jacket = mesh(*tube(0.17, 0.2, 0.6, grid=(40, 27)))
     plain = resolve_layers(body, [shirt, jacket], boundary_pass=False)
     tucked = resolve_layers(body, [shirt, jacket])
     for res in (plain, tucked):
@@ -132,9 +132,9 @@ def test_a_lower_layer_is_tucked_under_a_hem_where_the_hem_ends_up():
     from sample_scenes.shapes import tube
 
     body = body_tube()
-    shirt = mesh(*tube(0.18, 0.0, 0.6, n_around=40, n_along=40))
-    vest = mesh(*tube(0.175, 0.2, 0.6, n_around=40, n_along=27))
-    jacket = mesh(*tube(0.17, 0.0, 0.6, n_around=40, n_along=40))
+    shirt = mesh(*tube(0.18, 0.0, 0.6, grid=(40, 40)))
+    vest = mesh(*tube(0.175, 0.2, 0.6, grid=(40, 27)))
+    jacket = mesh(*tube(0.17, 0.0, 0.6, grid=(40, 40)))
     res = resolve_layers(body, [shirt, vest, jacket])
     d = res.stats["offset"]
     radius = [np.hypot(*g.vertices[:, :2].T) for g in res.garments]
@@ -159,8 +159,8 @@ def test_a_hem_the_body_holds_a_layer_in_front_of_tucks_nothing_around_it():
         return np.column_stack([v[:, :2] * (r / np.hypot(v[:, 0], v[:, 1]))[:, None], v[:, 2]])
 
     body = body_tube()
-    sv, sf = tube(0.165, 0.0, 0.6, n_around=40, n_along=40)  # rings 15.4 mm apart, one at z = 0.2
-    jv, jf = tube(0.17, 0.2, 0.6, n_around=40, n_along=27)
+    sv, sf = tube(0.165, 0.0, 0.6, grid=(40, 40))  # rings 15.4 mm apart, one at z = 0.2
+    jv, jf = tube(0.17, 0.2, 0.6, grid=(40, 27))
     shirt, jacket = mesh(taper(sv, 0.1515, 0.165, 0.02), sf), mesh(taper(jv, 0.151, 0.17, 0.0), jf)
     res = resolve_layers(body, [shirt, jacket], remove_hidden=False)
     assert res.stats["rays_boundary"] > 0 and res.stats["vertices_held_by_body"] > 0
@@ -199,8 +199,8 @@ def test_cloth_between_held_vertices_does_not_cut_through_a_ridge_of_the_body():
 
     box = trimesh.creation.box(extents=(0.3, 0.3, 0.6))
     body = mesh(box.vertices, box.faces)
-    sleeve = mesh(*tube(0.24, -0.25, 0.25, n_around=12, n_along=10))
-    over = mesh(*tube(0.216, -0.22, 0.22, n_around=96, n_along=20))
+    sleeve = mesh(*tube(0.24, -0.25, 0.25, grid=(12, 10)))
+    over = mesh(*tube(0.216, -0.22, 0.22, grid=(96, 20)))
     assert brute_crossings(body.vertices, body.faces, sleeve.vertices, sleeve.faces) == 0
     res = resolve_layers(body, [sleeve, over], remove_hidden=False)
     g = res.garments[0]
@@ -215,8 +215,8 @@ def test_already_correct_garments_are_left_alone():
     from sample_scenes.shapes import tube
 
     body = body_tube()
-    shirt = mesh(*tube(0.16, 0.05, 0.55, n_around=64, n_along=32))
-    jacket = mesh(*tube(0.175, 0.1, 0.55, n_around=64, n_along=32))
+    shirt = mesh(*tube(0.16, 0.05, 0.55, grid=(64, 32)))
+    jacket = mesh(*tube(0.175, 0.1, 0.55, grid=(64, 32)))
     res = resolve_layers(body, [shirt, jacket])
     assert not any(m.any() for m in res.moved)
     assert not any(r.any() for r in res.removed_faces)
@@ -347,7 +347,7 @@ def test_sleeves_at_other_heights_skip_the_stages_and_change_nothing(monkeypatch
 
     body = body_tube(height=0.8)
     shirt, jacket = noisy_sleeves()  # crossing each other on z 0.08-0.55
-    cuff = mesh(*tube(0.17, 0.62, 0.75, n_around=64, n_along=16))  # 7 cm above them
+    cuff = mesh(*tube(0.17, 0.62, 0.75, grid=(64, 16)))  # 7 cm above them
     # at millimetre and kilometre scales too
     body, shirt, cuff, jacket = (mesh(m.vertices * scale, m.faces) for m in (body, shirt, cuff, jacket))
     garments = [shirt, cuff, jacket]
@@ -405,7 +405,7 @@ def test_the_bound_before_the_search_holds_every_normal_the_search_gives(body_ki
 
         # six sides: corner normals 60 degrees apart, a side's middle blends two of them to a normal
         # longer along the side's axis than either (cos 30 degrees)
-        body = mesh(*tube(0.15, 0.0, 0.6, n_around=6, n_along=4))
+        body = mesh(*tube(0.15, 0.0, 0.6, grid=(6, 4)))
         targets = [[0.0, 0.15, 0.3], [0.0, -0.16, 0.2], [0.14, 0.08, 0.4]]
     facts = body_facts(np.asarray(body.vertices, float), np.asarray(body.faces))
     reach = 0.07
@@ -530,7 +530,7 @@ def test_garments_bound_to_the_same_body_points_resolve_alike_however_the_scene_
     0.1 mm now."""
     from scipy.spatial.transform import Rotation
 
-    body = mesh(*tube(0.15, 0.0, 0.6, n_around=64, n_along=33, capped=True))
+    body = mesh(*tube(0.15, 0.0, 0.6, grid=(64, 33), capped=True))
     lower = _bound_tube((10, 26), lambda t, z: 0.1585 + 0.004 * np.cos(3 * t) * np.cos(9 * z))
     upper = _bound_tube((16, 30), lambda t, z: 0.162 + 0.002 * np.sin(2 * t + 7 * z))
     right = resolve_layers(body, [lower, upper])
@@ -673,8 +673,8 @@ def test_a_joint_bulging_beside_the_probe_ray_still_holds_the_lower_layer_out():
     ball.apply_translation([0.0, 0.0, 0.0])
     body = trimesh.util.concatenate([arm, ball])
     # the sleeve hugs the ball (6 mm out); the outer sleeve sits inside it, 2 mm off the arm
-    sv, sf = tube(0.056, -0.1, 0.1, n_around=48, n_along=24)
-    ov, of = tube(0.042, -0.2, 0.2, n_around=48, n_along=40)
+    sv, sf = tube(0.056, -0.1, 0.1, grid=(48, 24))
+    ov, of = tube(0.042, -0.2, 0.2, grid=(48, 40))
     sleeve, outer = mesh(sv, sf), mesh(ov, of)
     res = resolve_layers(body, [sleeve, outer], offset=0.001)
     s = res.garments[0]
@@ -739,10 +739,10 @@ def test_the_inner_shell_of_a_garment_with_thickness_is_not_lifted():
     """A garment with two shells, as Solidify makes it (the inner one facing the body), sunk 1 mm into
     a tube body: its outer shell is lifted to the floor, its inner shell, behind the outer, is not."""
     body = body_tube(n=48)
-    outer_v, faces = tube(0.149, 0.12, 0.48, n_around=48, n_along=24)
-    inner_v, _ = tube(0.147, 0.12, 0.48, n_around=48, n_along=24)
+    outer_v, faces = tube(0.149, 0.12, 0.48, grid=(48, 24))
+    inner_v, _ = tube(0.147, 0.12, 0.48, grid=(48, 24))
     shell = mesh(np.vstack([outer_v, inner_v]), np.vstack([faces, faces[:, ::-1] + len(outer_v)]))
-    over = mesh(*tube(0.17, 0.1, 0.5, n_around=48, n_along=24))
+    over = mesh(*tube(0.17, 0.1, 0.5, grid=(48, 24)))
     res = resolve_layers(body, [shell, over], boundary_pass=False, push_behind=False, body_guard=False,
                          remove_hidden=False)
     moved = np.linalg.norm(res.moved[0], axis=1)

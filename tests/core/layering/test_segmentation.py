@@ -21,7 +21,7 @@ from core.layering.segmentation import (
     segments_from_groups,
     skirt_segments,
 )
-from sample_scenes.shapes import tube
+from sample_scenes.shapes import Folds, tube
 from tests.core.brute import brute_crossings
 from tests.core.layered_cases import lower_body, mesh
 
@@ -83,16 +83,16 @@ def test_unweighted_vertices_take_the_nearest_weighted_part():
 
 
 def test_boundary_loops_of_an_open_tube():
-    v, f = tube(1.0, 0.0, 1.0, n_around=12, n_along=5)
+    v, f = tube(1.0, 0.0, 1.0, grid=(12, 5))
     loops = boundary_loops(f, len(v))
     assert sorted(len(x) for x in loops) == [12, 12]
     assert sorted(float(v[x, 2].mean()) for x in loops) == [0.0, 1.0]
-    v, f = tube(1.0, 0.0, 1.0, n_around=12, n_along=5, capped=True)
+    v, f = tube(1.0, 0.0, 1.0, grid=(12, 5), capped=True)
     assert boundary_loops(f, len(v)) == []
 
 
 def _skirt(radius=0.18, z0=0.2, z1=0.62, n=64):
-    return mesh(*tube(radius, z0, z1, n_around=n, n_along=24))
+    return mesh(*tube(radius, z0, z1, grid=(n, 24)))
 
 
 def _segments_by_nearest(body, ids, g):
@@ -105,7 +105,7 @@ def test_a_skirt_hem_goes_round_both_legs_and_trouser_hems_do_not():
     skirt = _skirt()
     assert is_skirt(skirt.faces, _segments_by_nearest(body, ids, skirt), "S5")
     for x in (-0.09, 0.09):  # one trouser leg each
-        leg = mesh(*tube(0.085, 0.05, 0.49, n_around=32, n_along=12))
+        leg = mesh(*tube(0.085, 0.05, 0.49, grid=(32, 12)))
         leg.apply_translation([x, 0, 0])
         assert not is_skirt(leg.faces, _segments_by_nearest(body, ids, leg), "S5")
     # a waistband round the hips touches both legs' tops but lies mostly on the torso
@@ -113,7 +113,7 @@ def test_a_skirt_hem_goes_round_both_legs_and_trouser_hems_do_not():
     ring = np.array([[i, (i + 1) % 8, 8] for i in range(8)])  # a fan: its rim is one loop of 8
     assert not is_skirt(ring, np.r_[seg, 0], "S5")
     assert is_skirt(ring, np.r_[np.array([0, 0, 3, 3, 3, 4, 4, 4]), 0], "S5")
-    shirt = mesh(*tube(0.17, 0.6, 0.95, n_around=48, n_along=12))
+    shirt = mesh(*tube(0.17, 0.6, 0.95, grid=(48, 12)))
     assert not is_skirt(shirt.faces, _segments_by_nearest(body, ids, shirt), "S5")
     seg = skirt_segments(np.array([0, 3, 4, 1]), "S5")
     assert seg.tolist() == [0, 5, 5, 1]
@@ -151,7 +151,7 @@ def test_legs_are_apart_below_the_crotch_and_not_above_it():
 def test_jacket_over_a_skirt_pushes_the_skirt_behind_it():
     body, ids = lower_body()
     skirt = _skirt()
-    jacket = mesh(*tube(0.17, 0.45, 0.95, n_around=64, n_along=24))  # inside the skirt on z 0.45-0.62
+    jacket = mesh(*tube(0.17, 0.45, 0.95, grid=(64, 24)))  # inside the skirt on z 0.45-0.62
     res = resolve_layers(body, [skirt, jacket], body_segments=ids, scheme="S5")
     # the jacket's hem (z 0.45) is just below the torso, mostly on it: not a skirt
     assert res.stats["skirts"] == [0]
@@ -170,7 +170,7 @@ def test_a_long_probe_does_not_pull_a_skirt_towards_its_far_side():
     # side of the skirt above, which faces the other way: not a layer in front.
     body, ids = lower_body()
     rng = np.random.default_rng(3)
-    skirts = [mesh(*tube(r, 0.2, 0.62 - 0.003 * k, n_around=64, n_along=24, noise=0.008, rng=rng))
+    skirts = [mesh(*tube(r, 0.2, 0.62 - 0.003 * k, grid=(64, 24), folds=Folds(0.008, rng)))
               for k, r in enumerate((0.18, 0.184))]
     res = resolve_layers(body, skirts, body_segments=ids, scheme="S5", probe_distance=0.6)
     assert res.stats["skirts"] == [0, 1]
@@ -251,7 +251,7 @@ def test_scheme_needs_body_segments_in_range():
 
 def test_reused_correspondence_gives_the_same_result():
     body, ids = lower_body(n=24)
-    skirt, jacket = _skirt(n=32), mesh(*tube(0.17, 0.45, 0.95, n_around=32, n_along=12))
+    skirt, jacket = _skirt(n=32), mesh(*tube(0.17, 0.45, 0.95, grid=(32, 12)))
     first = resolve_layers(body, [skirt, jacket], body_segments=ids, scheme="S5")
     again = resolve_layers(body, [skirt, jacket], body_segments=ids, scheme="S5", correspondence=first.correspondence)
     for a, b in zip(first.garments, again.garments, strict=True):  # (a distance recomputed: round-off)
@@ -265,7 +265,7 @@ def test_skirt_points_on_the_legs_meet_a_higher_layer_of_the_torso():
     # the legs. Only the skirt segment, linked to the torso (Fig. 4.7), lets their rays meet it.
     body, ids = lower_body()
     skirt = _skirt()
-    jacket = mesh(*tube(0.17, 0.3, 0.95, n_around=64, n_along=24))
+    jacket = mesh(*tube(0.17, 0.3, 0.95, grid=(64, 24)))
     covered = (skirt.vertices[:, 2] > 0.31) & (skirt.vertices[:, 2] < 0.6)
     inner = 0.17 * np.cos(np.pi / 64)
     segs = [None, np.zeros(len(jacket.vertices), int)]
@@ -282,7 +282,7 @@ def test_skirt_points_on_the_legs_meet_a_higher_layer_of_the_torso():
 def test_given_skirt_segments_get_the_skirt_treatment():
     # segments passed back in (painted DRT_ groups) give what the skirt detection gave
     body, ids = lower_body()
-    skirt, jacket = _skirt(), mesh(*tube(0.17, 0.45, 0.95, n_around=64, n_along=24))
+    skirt, jacket = _skirt(), mesh(*tube(0.17, 0.45, 0.95, grid=(64, 24)))
     found = resolve_layers(body, [skirt, jacket], body_segments=ids, scheme="S5", segment_margin=0.0)
     again = resolve_layers(body, [skirt, jacket], body_segments=ids, scheme="S5", segment_margin=0.0,
                            garment_segments=found.segments)
@@ -294,7 +294,7 @@ def test_given_skirt_segments_get_the_skirt_treatment():
 def test_one_part_probe_distance_overrides_only_that_part():
     body, ids = lower_body()
     rng = np.random.default_rng(4)
-    skirts = [mesh(*tube(r, 0.2, 0.62 - 0.003 * k, n_around=32, n_along=12, noise=0.004, rng=rng))
+    skirts = [mesh(*tube(r, 0.2, 0.62 - 0.003 * k, grid=(32, 12), folds=Folds(0.004, rng)))
               for k, r in enumerate((0.18, 0.184))]
     default = resolve_layers(body, skirts, body_segments=ids, scheme="S5").stats["probe_distance"]
     given = np.full(len(default), np.nan)

@@ -5,7 +5,7 @@ import numpy as np
 import trimesh
 
 from core.layering import resolve_layers
-from sample_scenes.shapes import tube
+from sample_scenes.shapes import Folds, tube
 from tests.core.brute import brute_crossings
 from tests.core.layered_cases import body_tube, mesh
 
@@ -14,10 +14,9 @@ def radial(v):
     return np.hypot(v[:, 0], v[:, 1])
 
 
-def _tight(radius, z0, z1, seed, n_around=20, n_along=12, noise=0.003):
+def _tight(radius, z0, z1, seed, grid=(20, 12), noise=0.003):
     """A coarse sleeve whose radius wanders a few millimetres about ``radius`` (edges about 5 cm)."""
-    return mesh(*tube(radius, z0, z1, n_around=n_around, n_along=n_along, noise=noise,
-                      rng=np.random.default_rng(seed)))
+    return mesh(*tube(radius, z0, z1, grid=grid, folds=Folds(noise, np.random.default_rng(seed))))
 
 
 def _inside_body(body, v):
