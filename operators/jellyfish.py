@@ -3,6 +3,7 @@
 import bpy
 
 from ..addon.jellyfish import animal as jellyfish
+from ..core.jellyfish.bell3d import Anatomy
 from ..core.jellyfish.keyframes import FrameRange
 from ..core.jellyfish.stroke_search import GOAL_WEIGHTS, Running, Search, optimize
 from ..core.jellyfish.swimming import default_config
@@ -48,8 +49,9 @@ class DEFORMRT_OT_add_jellyfish(DeformRTOperator, bpy.types.Operator):
                                    min=0.0, max=0.6)
 
     def execute(self, context):
-        bell = jellyfish.add(context, self.size, self.segments, self.tentacles, self.tentacle_length, self.velum,
-                             self.veins)
+        bell = jellyfish.add(context, self.size, Anatomy(segments=self.segments, velum=self.velum, veins=self.veins,
+                                                         tentacles=self.tentacles,
+                                                         tentacle_length=self.tentacle_length))
         for obj in context.selected_objects:
             obj.select_set(False)
         bell.select_set(True)

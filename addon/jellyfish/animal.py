@@ -77,12 +77,13 @@ def _curve_object(name, polylines, radius, collection, material):
     return obj
 
 
-def add(context, size=0.3, segments=48, tentacles=16, tentacle_length=1.5, velum=0.12, veins=8):
-    """The bell (mesh), its veins and tentacles (curves, parented to it) at the 3D cursor."""
+def add(context, size: float, anatomy: bell3d.Anatomy):
+    """The bell (mesh) ``size`` across, its veins and tentacles (curves, parented to it) at the
+    3D cursor."""
     shape = BellShape()
     scale = size / shape.diameter
-    model = bell3d.build(shape, bell3d.Anatomy(segments=segments, velum=velum, veins=veins, tentacles=tentacles,
-                                               tentacle_length=tentacle_length))
+    model = bell3d.build(shape, anatomy)
+    segments, veins, tentacles = anatomy.segments, anatomy.veins, anatomy.tentacles
     col = context.collection
     mesh = bpy.data.meshes.new("Jellyfish")
     fill_mesh(mesh, model.verts * scale, model.faces)

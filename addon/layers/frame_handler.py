@@ -32,8 +32,8 @@ def _write_kept(scene):
     kept, signals = _replay
     if signals.caught:
         return
-    for obj, arguments in kept.get(scene.frame_current, ()):
-        results.write(scene, obj, *arguments)
+    for obj, shown in kept.get(scene.frame_current, ()):
+        results.write(scene, obj, shown)
 
 
 def switched(scene):

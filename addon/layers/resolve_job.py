@@ -193,13 +193,13 @@ def finish_resolve(scene, job: ResolveJob, output: ResolveOutput) -> ResolveSumm
         hidden = np.zeros(a.n_polygons, dtype=bool)
         hidden[a.triangle_polygon[removed]] = True
         faces_hidden.append(int(hidden.sum()))
-        results.write(scene, obj, moved @ to_local.T, hidden, made_for=made_for, cage_local=_local(a))
+        results.write(scene, obj, results.Shown(moved @ to_local.T, hidden, made_for=made_for, cage=_local(a)))
     if output.skin_hidden is None:  # without Hide Covered Skin the body shows whole
         results.clear(job.body)
     else:  # a result of the body's own, no moves
         body = job.arrays[0]
-        results.write(scene, job.body, np.zeros((len(body.vertices), 3)), output.skin_hidden,
-                      made_for=job.body_made_for, cage_local=_local(body))
+        results.write(scene, job.body, results.Shown(np.zeros((len(body.vertices), 3)), output.skin_hidden,
+                                                     made_for=job.body_made_for, cage=_local(body)))
     write_s = time.perf_counter() - t1
     st = result.stats
     garments = job.garments

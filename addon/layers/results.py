@@ -7,6 +7,7 @@ mesh is never written; Clear removes both and the garment renders as fitted.
 """
 
 from contextlib import contextmanager
+from dataclasses import dataclass
 
 import bpy
 import numpy as np
@@ -23,7 +24,21 @@ STALE_PROPERTY = "deformrt_stale"
 # On the data object: the garment (an object pointer) DeformRT made it for.
 OWNER_PROPERTY = "deformrt_result_of"
 
-_recorded = None  # while a frame bake resolves: each write's arguments, to be written again
+_recorded = None  # while a frame bake resolves: each write's object and Shown, to be written again
+
+
+@dataclass
+class Shown:
+    """What an object shows of a resolve: its vertices moved by ``offsets`` (per vertex where the
+    result sits, object space), without ``hidden`` (per polygon there); ``made_for``, the
+    fingerprint of what was resolved (``staleness.fingerprint``); ``cage``: where the vertices
+    were (object space), so the result passes a mesh whose vertices moved since through
+    (``result_nodes``)."""
+
+    offsets: np.ndarray
+    hidden: np.ndarray
+    made_for: str | None = None
+    cage: np.ndarray | None = None
 
 
 @contextmanager
@@ -186,16 +201,14 @@ def _fill_data_mesh(mesh, offsets, hidden, cage=None):
     mesh.update()  # the garment's result follows as the data's dependent
 
 
-def write(scene, obj, offsets_local, hidden_faces, stats=None, made_for=None, cage_local=None) -> None:
-    """Show ``obj`` moved by ``offsets_local`` (per vertex where the result sits, object space)
-    and without ``hidden_faces`` (per polygon there): data object and modifier, created or
-    updated, the modifier put in its place in the stack. ``made_for`` is the fingerprint of
-    what was resolved (``staleness.fingerprint``); ``cage_local``: where the vertices were (object
-    space), so the result passes a mesh whose vertices moved since through (``result_nodes``)."""
+def write(scene, obj, shown: Shown) -> None:
+    """Make ``obj`` show ``shown``: data object and modifier, created or updated, the modifier put
+    in its place in the stack."""
     if _recorded is not None:
         # single precision, as the data mesh stores them
-        _recorded.append((obj, (np.asarray(offsets_local, np.float32), np.array(hidden_faces, bool), stats, made_for,
-                                None if cage_local is None else np.asarray(cage_local, np.float32))))
+        cage = None if shown.cage is None else np.asarray(shown.cage, np.float32)
+        _recorded.append((obj, Shown(np.asarray(shown.offsets, np.float32), np.array(shown.hidden, bool),
+                                     shown.made_for, cage)))
     group = result_nodes.node_group()
     key = result_nodes.data_socket_id(group)
     mod = result_modifier(obj)
@@ -212,11 +225,9 @@ def write(scene, obj, offsets_local, hidden_faces, stats=None, made_for=None, ca
         data.hide_viewport = True
         _hidden_collection(scene, DATA_COLLECTION).objects.link(data)
     data[OWNER_PROPERTY] = obj
-    _fill_data_mesh(data.data, offsets_local, hidden_faces, cage_local)
-    if stats:
-        data["deformrt_stats"] = stats
-    if made_for is not None:
-        data[FINGERPRINT_PROPERTY] = made_for
+    _fill_data_mesh(data.data, shown.offsets, shown.hidden, shown.cage)
+    if shown.made_for is not None:
+        data[FINGERPRINT_PROPERTY] = shown.made_for
     if STALE_PROPERTY in data:
         del data[STALE_PROPERTY]
     changed = mod is None or blender_versions.modifier_input(mod, key) != data or \
