@@ -2,7 +2,8 @@
 
 Blender loads this package as an extension (``bl_ext.<repo>.deformrt``); the algorithms live in
 ``core`` and never import bpy. Registration lives here, above what it registers: the operators
-(``operators``, with the command line) and the Blender-side parts under them (``addon``).
+(``operators``), the Blender-side parts under them (``addon``) and the command line
+(``sample_scenes.cli``, which builds the bundled scenes and runs the jobs on them).
 Importing this package does not import bpy (the Blender glue loads in ``register``), so tools and
 test runners can walk the tree without Blender.
 """
@@ -15,12 +16,12 @@ def register():
     import bpy
 
     from .addon import properties
-    from .addon.cli import commands as cli
     from .addon.layers import frame_handler, staleness
     from .addon.render import engine as render_engine
     from .addon.ui import panels, preferences
     from .operators import jellyfish as jellyfish_ops
     from .operators import layering, tagging
+    from .sample_scenes.cli import commands as cli
 
     classes = (*properties.CLASSES, *preferences.CLASSES, *tagging.CLASSES, *layering.CLASSES,
                *jellyfish_ops.CLASSES, *panels.CLASSES)
@@ -39,12 +40,12 @@ def unregister():
     import bpy
 
     from .addon import properties
-    from .addon.cli import commands as cli
     from .addon.layers import frame_handler, staleness
     from .addon.render import engine as render_engine
     from .core.geometry import parallel
     from .core.layering.body_facts import forget_garments
     from .operators import jellyfish as jellyfish_ops
+    from .sample_scenes.cli import commands as cli
 
     render_engine.unregister()
     frame_handler.unregister()

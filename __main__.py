@@ -20,7 +20,7 @@ sys.modules["deformrt"] = _pkg
 _spec.loader.exec_module(_pkg)
 _pkg.register()
 try:
-    from deformrt.addon.cli import commands
+    from deformrt.sample_scenes.cli import commands
 
     code = commands.main(sys.argv[1:])
 finally:

@@ -66,7 +66,7 @@ class _DemoFigures:
 
 
 def _cmd_demo(args) -> int:
-    from ...sample_scenes import catalog
+    from .. import catalog
 
     # each scene its own folder unless told: a second demo does not overwrite the first's
     out = Path(args.out or ("out/demo" if args.scene == "fig_4_12" else f"out/demo_{args.scene}")).resolve()
@@ -93,11 +93,11 @@ def _cmd_demo(args) -> int:
 def _resolve_and_render(args, out, progress, build_s) -> _DemoFigures:
     """Render the built scene, resolve it as an artist does (the operator), render it again, save
     it, and measure crossings and poke-through before and after."""
+    from ...addon.io import mesh_io
+    from ...addon.layers import report as reports
+    from ...addon.layers import scene_roles
     from ...core.layering import metrics
-    from ...sample_scenes import studio
-    from ..io import mesh_io
-    from ..layers import report as reports
-    from ..layers import scene_roles
+    from .. import studio
 
     scene = bpy.context.scene
     objs = [scene_roles.bodies(scene)[0], *scene_roles.garments(scene)]
@@ -188,11 +188,11 @@ def _metrics_lines(f: _DemoFigures, args) -> list:
 def _frames_sheet(scene, objs, out, args) -> list:
     """frames.png: SHEET_FRAMES frames of the animation as fitted (top row) and as Resolve on Frame
     Change shows them in playback (bottom row, every frame played in order); returns metrics lines."""
+    from ...addon.io import mesh_io
+    from ...addon.io.image_io import contact_sheet
+    from ...addon.layers import frame_handler
     from ...core.layering import metrics
-    from ...sample_scenes import studio
-    from ..io import mesh_io
-    from ..io.image_io import contact_sheet
-    from ..layers import frame_handler
+    from .. import studio
 
     shown = np.linspace(scene.frame_start, scene.frame_end, SHEET_FRAMES).round().astype(int).tolist()
     size = (max(args.width // 2, 64), max(args.height // 2, 64))
@@ -248,10 +248,10 @@ class _Progress:
 
 def _cmd_scenes(args) -> int:
     """Build each bundled scene, save it (.blend, and .glb for the figures), render it."""
+    from ...addon.io import mesh_io
+    from ...addon.layers import scene_roles
     from ...core.layering import metrics
-    from ...sample_scenes import catalog, dressed, studio
-    from ..io import mesh_io
-    from ..layers import scene_roles
+    from .. import catalog, dressed, studio
 
     out = Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)

@@ -15,13 +15,13 @@ from pathlib import Path
 import bpy
 import numpy as np
 
+from ...addon.io import blender_versions, mesh_io
+from ...addon.io.image_io import contact_sheet
+from ...addon.jellyfish import animal as jellyfish
 from ...core.jellyfish import bell3d
 from ...core.jellyfish.fitness import fitness
 from ...core.jellyfish.stroke_search import GOAL_WEIGHTS, reference_scales
 from ...core.jellyfish.swimming import default_config, default_creature, simulate_cycle
-from ..io import blender_versions, mesh_io
-from ..io.image_io import contact_sheet
-from ..jellyfish import animal as jellyfish
 
 # the travel sheet: the start of every fourth cycle, 32 cycles; a stroke that swims more than SWIFT
 # bell diameters in its first cycle from rest is shown every cycle, so 8 cycles stay in the frame
@@ -64,7 +64,7 @@ def _bell_top(bell, n):
 def _render_sheet(scene, out, name, shots, film, place_camera=None):
     """Cycles renders of ``shots`` (frames) at ``film`` = (width, height, samples), put together as
     ``name``.png; returns the seconds rendering."""
-    from ...sample_scenes import studio
+    from .. import studio
 
     width, height, samples = film
     paths, seconds = [], 0.0
@@ -100,7 +100,7 @@ class _Swim:
 
 
 def run(args) -> int:
-    from ...sample_scenes import sea
+    from .. import sea
 
     out = Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
@@ -116,9 +116,8 @@ def run(args) -> int:
     cam.rotation_euler = (np.radians(88.0), 0.0, 0.0)
     cam.data.lens = 50
     swim = _search_and_bake(args, bell)
-    n = json.loads(bell[jellyfish.PROP_MODEL])["bell_vertices"]
-    volume_err = _volume_change(scene, bell, n, args.cycle_frames)
-    stroke_shots, travel_shots, rise = _render_sheets(args, out, scene, bell, anchor, swim, n)
+    volume_err = _volume_change(scene, bell, _bell_vertices(bell), args.cycle_frames)
+    stroke_shots, travel_shots, rise = _render_sheets(args, out, bell, anchor, swim)
     table = "\n".join(_metrics_lines(args, swim, volume_err, stroke_shots, travel_shots, rise))
     (out / "metrics.md").write_text(table + "\n")
     scene.frame_set(1)
@@ -169,9 +168,15 @@ def _volume_change(scene, bell, n, frames) -> list:
     return volume_err
 
 
-def _render_sheets(args, out, scene, bell, anchor, swim, n):
+def _bell_vertices(bell) -> int:
+    """How many of the bell object's vertices make its closed bell surface (the first ones)."""
+    return json.loads(bell[jellyfish.PROP_MODEL])["bell_vertices"]
+
+
+def _render_sheets(args, out, bell, anchor, swim):
     """stroke_sheet.png (one cycle, the camera riding along) and contact_sheet.png (the travel,
     a fixed camera); (the stroke's frames, the travel's frames, how far the top rose)."""
+    scene, n = bpy.context.scene, _bell_vertices(bell)
     frames, cam = args.cycle_frames, scene.camera
     # one cycle in 8 pictures; the camera rides along so the bell stays in frame
     stroke_shots = [1 + round(k * frames / 8) for k in range(8)]
