@@ -16,7 +16,6 @@ directly: the operator is unsymmetric, and its left null vector (not the constan
 in the plane) makes the right-hand side solvable.
 """
 
-from dataclasses import replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -32,10 +31,10 @@ class AxisymmetricFluid(LatticeFluid):
     def __init__(self, radius: float, height: float, nr: int, nz: int, liquid: Liquid | None = None,
                  stepping: Stepping | None = None):
         stepping = stepping or Stepping()
-        if stepping.pressure_solver not in ("auto", "direct"):
-            raise ValueError("the axisymmetric fluid solves its pressure directly")
+        if stepping.pressure_solver not in ("auto", "modes", "direct"):
+            raise ValueError("the axisymmetric fluid solves its pressure directly (by modes, or a sparse LU)")
         super().__init__(Box(radius, height, periodic=(False, True), mirrors=("left", "right")), nr, nz, liquid,
-                         replace(stepping, pressure_solver="direct"))
+                         stepping)
         self.radius = self.points[:, 0]
         self.volume = 2.0 * np.pi * self.radius * self.h**2
         self._dr = None

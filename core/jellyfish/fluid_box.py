@@ -34,8 +34,9 @@ class Liquid:
 @dataclass(frozen=True)
 class Stepping:
     """How the lattice fluid steps: its kernel's reach in spacings (``re_factor``), the largest
-    Courant number of an inner step (``cfl``), how the pressure is solved ("auto": spectral on a
-    box periodic both ways, else "direct"; or "krylov"), and how a forced body's velocity is
+    Courant number of an inner step (``cfl``), how the pressure and a viscous step are solved
+    ("auto": "spectral" on a box periodic both ways, "modes" (``axial_modes``) on one periodic
+    along y only, else "direct", a sparse LU; or "krylov"), and how a forced body's velocity is
     imposed: GMRES corrections after each projection, a fixed count, or until the field on the
     body meets its velocity to ``forcing_tolerance`` (a share of its fastest speed)."""
 
@@ -53,8 +54,8 @@ class Stepping:
         tol = self.forcing_tolerance
         if tol is not None and not (np.isfinite(tol) and tol > 0):
             raise ValueError(f"forcing_tolerance must be a share > 0 of the body's speed (or None), got {tol}")
-        if self.pressure_solver not in ("auto", "spectral", "direct", "krylov"):
-            raise ValueError("pressure_solver is 'auto', 'spectral', 'direct' or 'krylov'")
+        if self.pressure_solver not in ("auto", "spectral", "modes", "direct", "krylov"):
+            raise ValueError("pressure_solver is 'auto', 'spectral', 'modes', 'direct' or 'krylov'")
 
 
 @dataclass

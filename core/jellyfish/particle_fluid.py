@@ -6,7 +6,9 @@ from a cubic spline through the lattice; the particles are thus returned to the 
 every step (the thesis' step 6), which keeps the MPS operators accurate. Viscosity and body
 forces are implicit (backward Euler with the MPS Laplacian, eq. 3.5), so a stiff viscosity
 costs no extra steps; the pressure Poisson equation (3.9) with the MPS divergence (3.7) is
-solved as one sparse system and its gradient (3.4) makes the velocity divergence-free.
+solved directly and its gradient (3.4) makes the velocity divergence-free. On a regular lattice
+periodic along an axis every operator is the same at each row, so these solves go by Fourier
+modes (``axial_modes``; both ways periodic, divisions); else by a sparse LU.
 
 Walls and periodic sides are ghost particles: a periodic ghost copies its source, a wall
 ghost mirrors it (velocity 2 U_wall - u for no-slip, the pressure copied). Inner steps keep
@@ -19,15 +21,18 @@ from dataclasses import replace
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from scipy.ndimage import map_coordinates, spline_filter
 
-from ..geometry.cache import Cache
+from ..geometry.cache import Cache, nbytes
+from .axial_modes import AxialModes
 from .body_projection import project_with_body
-from .fluid_box import SIDES, Box, FluidBlowUp, Liquid, Stepping, ghosts
+from .fluid_box import Box, FluidBlowUp, Liquid, Stepping, ghosts
+from .lattice_spline import LatticeSpline
 from .mps import Neighbours, lattice
 
-# Factored pressure matrices by lattice: an optimisation simulates many creatures on one.
-PRESSURE_FACTORS = Cache(max_entries=4)
+# Factored pressure and viscous matrices by lattice (and viscosity and step): an optimisation
+# simulates many creatures on one. A lattice's by modes take about 2 MB at 100 particles a side,
+# 16 MB at 200.
+FACTORS = Cache(max_entries=8, max_bytes=256 * 2**20)
 
 
 class LatticeFluid:
@@ -46,14 +51,19 @@ class LatticeFluid:
         pressure_solver, re_factor = stepping.pressure_solver, stepping.re_factor
         if pressure_solver == "spectral" and not all(box.periodic):
             raise ValueError("the spectral solves need a box periodic on both axes")
+        if pressure_solver == "modes" and tuple(box.periodic) != (False, True):
+            raise ValueError("the solves by modes need a box periodic along y only")
         self.forcing_corrections, self.forcing_tolerance = int(stepping.forcing_corrections), stepping.forcing_tolerance
         self.box, self.nx, self.ny, self.h = box, nx, ny, hx
         self.nu, self.rho, self.cfl = float(liquid.viscosity), float(liquid.density), float(stepping.cfl)
         self.body_force = np.asarray(liquid.body_force, float)
         # On a lattice periodic both ways every operator is the same stencil at every particle (a
         # circulant): the Fourier transform makes the pressure and viscous solves divisions.
+        # Periodic along y only, every operator is the same at every row: a dense solve per Fourier
+        # mode along y (axial_modes) instead of a sparse LU of the whole lattice.
         if pressure_solver == "auto":
-            pressure_solver = "spectral" if all(box.periodic) else "direct"
+            pressure_solver = ("spectral" if all(box.periodic) else "modes" if tuple(box.periodic) == (False, True)
+                               else "direct")
         self.pressure_solver = pressure_solver
         self._symbols = None
         self.points = lattice(nx, ny, self.h)
@@ -186,63 +196,18 @@ class LatticeFluid:
         body's sharp velocity it makes a net momentum of about 3 mm/s x the body's mass a cycle,
         which a free body's momentum balance would take from the body. It is taken back as a
         uniform velocity, which has neither divergence nor vorticity: the flow is otherwise untouched."""
-        coeffs = [self._spline(u[:, k], k) for k in (0, 1)]
-        carry = coeffs if carrier is u else [self._spline(carrier[:, k], k) for k in (0, 1)]
+        spline = LatticeSpline(self.box, self.nx, self.ny, self.h)
+        coeffs = [spline.coefficients(u[:, k], k) for k in (0, 1)]
+        carry = coeffs if carrier is u else [spline.coefficients(carrier[:, k], k) for k in (0, 1)]
         mid = self.points - 0.5 * dt * carrier
-        u_mid = np.column_stack([self._sample(c, mid) for c in carry])
+        u_mid = np.column_stack([spline.sample(c, mid) for c in carry])
         start = self.points - dt * u_mid
-        out = np.column_stack([self._sample(c, start) for c in coeffs])
+        out = np.column_stack([spline.sample(c, start) for c in coeffs])
         return out - self._uniform_momentum(out - u)
 
     def _uniform_momentum(self, change):
         """The uniform velocity that carries the momentum of ``change``."""
         return change.mean(0)
-
-    _PAD = 4
-
-    def _spline(self, values, component):
-        """Cubic B-spline coefficients of one velocity component on the lattice, padded with
-        the ghost rows the sides call for (wrapped or mirrored about the wall's velocity)."""
-        if all(self.box.periodic):  # exact periodic splines: no side, no padding, the flow's mirror symmetry kept
-            return spline_filter(values.reshape(self.ny, self.nx), order=3, mode="grid-wrap")
-        pad = self._PAD
-        out = np.empty((self.ny + 2 * pad, self.nx + 2 * pad))
-        out[pad:-pad, pad:-pad] = values.reshape(self.ny, self.nx)
-        for axis, n in ((1, self.nx), (0, self.ny)):  # array axis 1 runs along x
-            space = 1 - axis
-            lo_side, hi_side = SIDES[2 * space], SIDES[2 * space + 1]
-            for k in range(pad):
-                if self.box.periodic[space]:
-                    lo_val = np.take(out, pad + n - 1 - k, axis=axis)
-                    hi_val = np.take(out, pad + k, axis=axis)
-                else:
-                    lo_val = self._mirror(np.take(out, pad + k, axis=axis), lo_side, space, component)
-                    hi_val = self._mirror(np.take(out, pad + n - 1 - k, axis=axis), hi_side, space, component)
-                lo, hi = pad - 1 - k, pad + n + k
-                if axis == 1:
-                    out[:, lo], out[:, hi] = lo_val, hi_val
-                else:
-                    out[lo, :], out[hi, :] = lo_val, hi_val
-        return spline_filter(out, order=3, mode="nearest")
-
-    def _mirror(self, row, side, normal_axis, component):
-        if side in self.box.mirrors:
-            return -row if component == normal_axis else row
-        wall = self.box.wall_velocity.get(side, 0.0) if component != normal_axis else 0.0
-        return 2.0 * wall - row
-
-    def _sample(self, coeffs, points):
-        if all(self.box.periodic):
-            return map_coordinates(coeffs, [points[:, 1] / self.h - 0.5, points[:, 0] / self.h - 0.5], order=3,
-                                   mode="grid-wrap", prefilter=False)
-        pad = self._PAD
-        rows = points[:, 1] / self.h - 0.5 + pad
-        cols = points[:, 0] / self.h - 0.5 + pad
-        if self.box.periodic[0]:
-            cols = (cols - pad) % self.nx + pad
-        if self.box.periodic[1]:
-            rows = (rows - pad) % self.ny + pad
-        return map_coordinates(coeffs, [rows, cols], order=3, mode="nearest", prefilter=False)
 
     def _viscous_matrix(self, dt, k):
         key = (dt, k)
@@ -250,8 +215,13 @@ class LatticeFluid:
             if len(self._viscous) > 8:
                 self._viscous = {c: v for c, v in self._viscous.items() if c[0] == "operator"}
             lap, const = self._viscous_operator(k)
-            a = sp.identity(self.n, format="csc") - dt * self.nu * lap.tocsc()
-            self._viscous[key] = (spla.splu(a), const)
+            shared = (*self._lattice_key(), "viscous", self.nu, dt, k)
+            solver = FACTORS.get(shared)
+            if solver is None:
+                a = sp.identity(self.n, format="csc") - dt * self.nu * lap.tocsc()
+                solver = AxialModes(a.tocsr(), self.nx, self.ny) if self.pressure_solver == "modes" else spla.splu(a)
+                FACTORS.put(shared, solver, nbytes(solver))
+            self._viscous[key] = (solver, const)
         return self._viscous[key]
 
     def _spectral_symbols(self):
@@ -282,8 +252,9 @@ class LatticeFluid:
                 out[:, k] = rhs if self.nu == 0 else self._values(self._field(rhs) / (1.0 - dt * self.nu * viscous[k]))
             return out
         # a weak viscous step (water on a fine lattice) is a few Krylov iterations; a stiff one
-        # is factored once per step size and reused
-        stiff = dt * self.nu / self.h**2 > 0.5
+        # is factored once per step size and reused; by modes, each is a direct solve, made once
+        # per step size
+        stiff = self.pressure_solver == "modes" or dt * self.nu / self.h**2 > 0.5
         for k in (0, 1):
             rhs = u[:, k] + dt * self.body_force[k]
             if self.nu == 0:
@@ -331,11 +302,15 @@ class LatticeFluid:
         planar operator is symmetric)."""
         return None
 
+    def _lattice_key(self) -> tuple:
+        """What this lattice's operators are made from (the walls' speeds aside)."""
+        return (type(self).__name__, self.box.width, self.box.height, tuple(self.box.periodic), self.box.mirrors,
+                self.nx, self.ny, self.re, self.pressure_solver)
+
     def _pressure_system(self):
-        key = (type(self).__name__, self.box.width, self.box.height, tuple(self.box.periodic), self.box.mirrors,
-               self.nx, self.ny, self.re, self.pressure_solver)
+        key = self._lattice_key()
         if self._pressure is None:
-            self._pressure = PRESSURE_FACTORS.get(key)
+            self._pressure = FACTORS.get(key)
         if self._pressure is None:
             lap = self._pressure_operator().tolil()
             pin = self._pin if self._pin >= 0 else self.n + self._pin
@@ -343,10 +318,11 @@ class LatticeFluid:
             pinned[pin, :] = 0.0
             pinned[pin, pin] = 1.0
             lap = lap.tocsr()
-            direct = self.pressure_solver == "direct"
-            self._pressure = (lap, spla.splu(pinned.tocsc()) if direct else None,
-                              self._left_null(lap, pin) if direct else None, pin)
-            PRESSURE_FACTORS.put(key, self._pressure)
+            solver = self.pressure_solver
+            factor = (spla.splu(pinned.tocsc()) if solver == "direct"
+                      else AxialModes(lap, self.nx, self.ny, pin=pin % self.nx) if solver == "modes" else None)
+            self._pressure = (lap, factor, self._left_null(lap, pin) if factor is not None else None, pin)
+            FACTORS.put(key, self._pressure, nbytes(self._pressure))
         return self._pressure
 
     def _project(self, u, dt):
@@ -363,7 +339,8 @@ class LatticeFluid:
         if lu is not None:
             # a uniform source takes what the sides cannot carry: the system is then solvable exactly
             b = rhs - (rhs.mean() if null is None else null @ rhs / null.sum())
-            b[pin] = 0.0
+            if self.pressure_solver == "direct":
+                b[pin] = 0.0  # the pinned row's (by modes, the row mean's column is pinned inside)
             p = lu.solve(b)
             p -= p.mean()
         else:

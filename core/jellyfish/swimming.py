@@ -47,7 +47,7 @@ class JellyfishConfig:
     # mean square), at most forcing_corrections (None: always that many). A fixed two missed the
     # bell's velocity by 4.9-12.7 mm/s at 50-200 particles a side. To 3% the six-cycle path at 100
     # moves +0.05% and the first cycle +0.5% when the tolerance tightens tenfold, at 0.54 s a cycle
-    # against 0.65 s to 1% and 0.83 s to 0.3% (REPORT; 10% moved the path by 18%)
+    # against 0.65 s to 1% and 0.83 s to 0.3% (REPORT, by a sparse LU; 10% moved the path by 18%)
     forcing_corrections: int = 16
     forcing_tolerance: float | None = 0.03
     box_height: float | None = None  # m along the swimming axis; None: the box's width (square)
@@ -57,6 +57,10 @@ class JellyfishConfig:
     cycles: int = 1
     # the water's key in waters.WATERS: "axisymmetric" (round the axis) or "planar" (the thesis')
     fluid: str = "axisymmetric"
+    # how its pressure and viscous steps are solved (fluid_box.Stepping's pressure_solver): "auto"
+    # picks Fourier modes along the axis round it (0.41-0.44 s a cycle at the default against
+    # 0.55-0.67 s by a sparse LU, the same path to 6 digits; REPORT)
+    solver: str = "auto"
 
     def __post_init__(self):
         if self.substeps < 1:

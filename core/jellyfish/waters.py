@@ -103,4 +103,4 @@ def lattice_for(config) -> LatticeFluid:
     return water(config.fluid).lattice(
         config, Liquid(viscosity=config.viscosity, density=config.density),
         Stepping(cfl=config.cfl, forcing_corrections=config.forcing_corrections,
-                 forcing_tolerance=config.forcing_tolerance))
+                 forcing_tolerance=config.forcing_tolerance, pressure_solver=config.solver))
