@@ -20,8 +20,7 @@ def build(seed: int = 0, resolution: int = 96):
     """Replace the current scene's contents with the tubes scene; returns (body, garments)."""
     scene = studio.empty_scene("Tubes")
     col = scene.collection
-    bv, bf = shapes.tube_body(resolution)
-    body = mesh_io.new_mesh_object("Body", bv, bf, col)
+    body = mesh_io.new_mesh_object("Body", *shapes.tube_body(resolution), col)
     body.deformrt.role, body.deformrt.layer = "BODY", 0
     studio.material(body, "Skin", (0.85, 0.65, 0.5, 1.0))
     garments = []

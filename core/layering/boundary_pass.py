@@ -59,7 +59,7 @@ def tuck_under_hems(stack, k):
     if not len(o):
         return
     probes = Probes(o, n_o, np.concatenate([stack.probe_len[j][stack.hems[j]] for j in up]),
-                    np.concatenate([stack.vseg2[j][stack.hems[j]] for j in up]))
+                    np.concatenate([stack.junction_parts[j][stack.hems[j]] for j in up]))
     traced = trace_layers(probes, stack.scenes, [k], HitRules(cull=True, facing=(stack.normals, n_o)))
     t, layer, face = traced.t, traced.layer, traced.face
     stack.rays["boundary"] += traced.rays

@@ -19,11 +19,11 @@ def covered_faces(body_vertices, body_faces, garments, reach_out, reach_in, marg
     faces) pairs. A face at a hem, under a neckline or a sleeve's opening has a point with no
     cloth over it and is kept, and so is every face within ``margin`` of one over the body's
     surface: looking into a sleeve, the skin just inside its opening shows."""
-    bv = np.asarray(body_vertices, dtype=np.float64)
-    bf = np.asarray(body_faces, dtype=np.int64)
-    out = np.zeros(len(bf), dtype=bool)
+    body_vertices = np.asarray(body_vertices, dtype=np.float64)
+    body_faces = np.asarray(body_faces, dtype=np.int64)
+    out = np.zeros(len(body_faces), dtype=bool)
     garments = [(np.asarray(v, float), np.asarray(f, np.int64)) for v, f in garments if len(f)]
-    if not len(bf) or not garments:
+    if not len(body_faces) or not garments:
         return out
     offsets = np.cumsum([0] + [len(v) for v, _ in garments])
     cloth = RayScene(np.vstack([v for v, _ in garments]),
@@ -37,19 +37,19 @@ def covered_faces(body_vertices, body_faces, garments, reach_out, reach_in, marg
         over[ok] = cloth.occluded(points[ok] - normals[ok] * reach_in, normals[ok], max_dist=span)
         return over
 
-    covered = clothed(bv, vertex_normals(bv, bf))[bf].all(axis=1)
+    covered = clothed(body_vertices, vertex_normals(body_vertices, body_faces))[body_faces].all(axis=1)
     # a face's centre is asked only when its corners are all under cloth (else it is kept anyway)
     ask = np.flatnonzero(covered)
-    a, b, c = (bv[bf[ask, k]] for k in range(3))
+    a, b, c = (body_vertices[body_faces[ask, k]] for k in range(3))
     covered[ask] = clothed((a + b + c) / 3.0, unit(cross(b - a, c - a)))
-    n_v = len(bv)
+    n_v = len(body_vertices)
     if margin > 0 and not covered.all():
-        topo = topology_of(bf, n_v)
+        topo = topology_of(body_faces, n_v)
         e = topo.edges
-        lengths = np.linalg.norm(bv[e[:, 0]] - bv[e[:, 1]], axis=1)[topo.adjacency_edge]
-        open_skin = np.unique(bf[~covered])
+        lengths = np.linalg.norm(body_vertices[e[:, 0]] - body_vertices[e[:, 1]], axis=1)[topo.adjacency_edge]
+        open_skin = np.unique(body_faces[~covered])
         near = path_distance(topo.adjacency, lengths, open_skin, margin) <= margin
-        covered &= ~near[bf].any(axis=1)
+        covered &= ~near[body_faces].any(axis=1)
     return covered
 
 

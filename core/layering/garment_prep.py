@@ -28,7 +28,7 @@ class Prepared(NamedTuple):
     clearance: np.ndarray  # a lower bound on each vertex's distance from the body (inf: inside it)
     normals: np.ndarray  # the global normals n'
     vseg: np.ndarray  # segment id per vertex
-    vseg2: np.ndarray  # (n, 2) segment and the part across a nearby junction (-1: none)
+    junction_parts: np.ndarray  # (n, 2) segment and the part across a nearby junction (-1: none)
     probe_len: np.ndarray  # l_s per vertex
     skirt: bool
     far: int  # vertices farther from the body than their probe reaches
@@ -43,40 +43,40 @@ def _read_only_copy(entry: Prepared) -> Prepared:
     return entry._replace(corr=BodyCorrespondence(frozen(c.triangle), frozen(c.bary), frozen(c.distance),
                                                   None if c.checked is None else frozen(c.checked)),
                           **{f: frozen(getattr(entry, f))
-                             for f in ("clearance", "normals", "vseg", "vseg2", "probe_len")})
+                             for f in ("clearance", "normals", "vseg", "junction_parts", "probe_len")})
 
 
 class GarmentPrep:
-    """The pre-processing of one resolve of garments ``garr`` ((vertices, faces) each) on the
+    """The pre-processing of one resolve of garments ``garment_arrays`` ((vertices, faces) each) on the
     BodyFacts ``body``. Per garment, filled as each is prepared (None before): ``corr``
     (BodyCorrespondence), ``clearance`` (a lower bound on each vertex's distance from the body:
     the distance to its body point, inf inside the body), ``normals`` (n'), ``vseg`` (segment per
-    vertex), ``vseg2`` (segment and the part across a nearby junction), ``probe_len`` (l_s per
+    vertex), ``junction_parts`` (segment and the part across a nearby junction), ``probe_len`` (l_s per
     vertex), ``mean_edge`` (mean edge length). ``traced``: per garment whether it comes
     near another; ``active``: those, in order; ``skirts``, ``reused`` (found kept), ``far``
     (vertices farther from the body than their probe reaches). ``complete()`` prepares the
     garments the resolve did not trace, for a caller that reads them."""
 
-    def __init__(self, body, garr, params, reach):
+    def __init__(self, body, garment_arrays, params, reach):
         """``params``: the resolve's LayeringParameters; ``reach``: its ProbeReach."""
         body_seg, scheme, links, one_part = params.body_segments, params.scheme, params.links, params.one_part
         l_seg, radius, local_probe, margin = reach.per_segment, reach.radius, reach.local, params.segment_margin
         given_normals, given_segments = params.global_normals, params.garment_segments
         given_corr = params.correspondence
-        self.body, self.garr, self.body_seg, self.scheme = body, garr, body_seg, scheme
+        self.body, self.garment_arrays, self.body_seg, self.scheme = body, garment_arrays, body_seg, scheme
         self.one_part, self.l_seg, self.radius, self.local_probe = one_part, l_seg, radius, local_probe
         self.junctions, self.margin = reach.junctions, margin
         self.given_normals, self.given_segments, self.given_corr = given_normals, given_segments, given_corr
         self.gap = offset = params.gap  # a stage moves a vertex by at most l_s plus the gap
-        n_g = len(garr)
-        self.corr, self.normals, self.vseg, self.vseg2, self.probe_len = ([None] * n_g for _ in range(5))
+        n_g = len(garment_arrays)
+        self.corr, self.normals, self.vseg, self.junction_parts, self.probe_len = ([None] * n_g for _ in range(5))
         self.clearance, self.mean_edge = [None] * n_g, [0.0] * n_g
         self.skirts, self.reused = [], []
         # A garment whose box, grown by three times what a stage can reach (a probe or hem ray's
         # l_s plus d, and two moves of at most that, its own or the other's), meets no other
         # garment's box can neither move nor lose a face: it skips every stage, the body search too.
         self.reach = reach = float(np.nanmax(radius if local_probe else l_seg, initial=0.0)) + offset
-        self.traced = traced = near_another([box(v) for v, _ in garr], 3 * reach)
+        self.traced = traced = near_another([box(v) for v, _ in garment_arrays], 3 * reach)
         # What prepare finds for a garment depends on nothing but these and the garment's own
         # arrays: resolving the same garments again (a setting changed) finds it kept on the body.
         self._stage_key = digest(body_seg, l_seg, links, np.array([local_probe, one_part, margin]),
@@ -89,7 +89,7 @@ class GarmentPrep:
         searchable = [given_corr[i] is None and given_normals[i] is None
                       and not (traced[i] and self.kept(i) is not None) for i in range(n_g)]
         # garment -> its vertices' nearest body vertices, asked there for the search
-        self._nearest = _apart_before_search(garr, traced, body, reach, searchable) if scheme is None else {}
+        self._nearest = _apart_before_search(garment_arrays, traced, body, reach, searchable) if scheme is None else {}
         searched = [i for i in range(n_g) if traced[i]]
         found = self._search([i for i in searched if given_corr[i] is None and self.kept(i) is None])
         self.far = sum(self._prepare(i, found.get(i)) for i in searched)
@@ -97,8 +97,8 @@ class GarmentPrep:
         # inward: tuck, then push) and every ray one reach more, in along -n' or out along n', so a
         # garment's triangles and rays stay in the box of v + R n' .. v - 3R n' over its vertices.
         # Garments whose such boxes meet no other's skip the stages too (sleeves at separate heights).
-        swept = near_another([box(garr[i][0] + reach * self.normals[i], garr[i][0] - 3 * reach * self.normals[i])
-                              for i in searched], 0.0)
+        swept = near_another([box(garment_arrays[i][0] + reach * self.normals[i],
+                                  garment_arrays[i][0] - 3 * reach * self.normals[i]) for i in searched], 0.0)
         for i, near in zip(searched, swept, strict=True):
             traced[i] = near
         self.active = [i for i in searched if traced[i]]
@@ -116,13 +116,13 @@ class GarmentPrep:
     def faces_key(self, i):
         """Garment i's faces_key (its faces are hashed once for its topology and its content)."""
         if i not in self._face_keys:
-            self._face_keys[i] = faces_key(self.garr[i][1])
+            self._face_keys[i] = faces_key(self.garment_arrays[i][1])
         return self._face_keys[i]
 
     def content(self, i):
         """A digest of garment i's vertices and faces as they came."""
         if i not in self._contents:
-            self._contents[i] = digest(self.garr[i][0], np.frombuffer(self.faces_key(i), np.uint8))
+            self._contents[i] = digest(self.garment_arrays[i][0], np.frombuffer(self.faces_key(i), np.uint8))
         return self._contents[i]
 
     def kept(self, i):
@@ -135,11 +135,11 @@ class GarmentPrep:
         """One body search for all of the garments ``ids`` (the body's kd-tree and fans made once)."""
         if not ids:
             return {}
-        garr, body = self.garr, self.body
+        garment_arrays, body = self.garment_arrays, self.body
         known = np.vstack([self._nearest[i] for i in ids]) if all(i in self._nearest for i in ids) else None
-        whole = nearest_on_surface(np.vstack([garr[i][0] for i in ids]), body.vertices, body.faces,
+        whole = nearest_on_surface(np.vstack([garment_arrays[i][0] for i in ids]), body.vertices, body.faces,
                                    search=body.search, near=known)
-        start = np.cumsum([0] + [len(garr[i][0]) for i in ids])
+        start = np.cumsum([0] + [len(garment_arrays[i][0]) for i in ids])
         return {i: BodyCorrespondence(whole.triangle[a:b], whole.bary[a:b], whole.distance[a:b])
                 for i, a, b in zip(ids, start[:-1], start[1:], strict=True)}
 
@@ -158,18 +158,18 @@ class GarmentPrep:
             self.corr[i] = BodyCorrespondence(kc.triangle.copy(), kc.bary.copy(), kc.distance.copy(),
                                               None if kc.checked is None else kc.checked.copy())
             self.normals[i], self.vseg[i] = entry.normals.copy(), entry.vseg.copy()
-        self.vseg2[i], self.probe_len[i] = entry.vseg2, entry.probe_len
+        self.junction_parts[i], self.probe_len[i] = entry.junction_parts, entry.probe_len
         self.clearance[i], self.mean_edge[i] = entry.clearance.copy(), entry.mean_edge
         if entry.skirt:
             self.skirts.append(i)
         return entry.far
 
     def _find(self, i, c):
-        v, f = self.garr[i]
-        bv, bf, body_seg, scheme = self.body.vertices, self.body.faces, self.body_seg, self.scheme
+        v, f = self.garment_arrays[i]
+        body_vertices, body_faces, body_seg, scheme = self.body.vertices, self.body.faces, self.body_seg, self.scheme
         if self.given_corr[i] is not None:
             c = carried(self.given_corr[i], v, self.body, self.gap)
-        at_body = c.normals(self.body.normals, bf) if len(v) else np.zeros((0, 3))
+        at_body = c.normals(self.body.normals, body_faces) if len(v) else np.zeros((0, 3))
         if self.given_normals[i] is not None:
             n = np.asarray(self.given_normals[i], dtype=np.float64)
             n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
@@ -180,8 +180,8 @@ class GarmentPrep:
             s = np.asarray(self.given_segments[i], dtype=np.int64)
             skirt = scheme is not None and bool((s == scheme.skirt).any())
         elif len(v):
-            s, corner = part_at(c, bf, body_seg)
-            if scheme is not None and is_skirt(f, s, scheme, vertices=v, body=(bv, body_seg)):
+            s, corner = part_at(c, body_faces, body_seg)
+            if scheme is not None and is_skirt(f, s, scheme, vertices=v, body=(body_vertices, body_seg)):
                 s = skirt_segments(s, scheme)
                 skirt = True
         else:
@@ -192,9 +192,9 @@ class GarmentPrep:
             on_skirt = np.isin(s, (scheme.skirt, scheme.torso))
             if self.given_normals[i] is None and on_skirt.any():
                 n = n.copy()  # at_body keeps the body's own
-                n[on_skirt] = hull_normals(bv, body_seg, (scheme.torso, *scheme.skirt_spans), v[on_skirt])
+                n[on_skirt] = hull_normals(body_vertices, body_seg, (scheme.torso, *scheme.skirt_spans), v[on_skirt])
         if self.local_probe and len(v):
-            lv = radius_at(c, bf, self.radius)
+            lv = radius_at(c, body_faces, self.radius)
         else:
             lv = self.l_seg[s]
         if self.one_part:
@@ -203,20 +203,21 @@ class GarmentPrep:
         if len(self.junctions[0]) and self.given_segments[i] is None and len(v):
             # from the corner whose part the vertex took: no junction of that part is nearer than
             # the corner's own nearest less the corner's distance (the others are asked)
-            lower = self.body.junction_distance(body_seg, corner) - norms(v - rows(bv, corner))
+            lower = self.body.junction_distance(body_seg, corner) - norms(v - rows(body_vertices, corner))
             lower[s != body_seg[corner]] = 0.0
             border = border_segment(v, c.distance, s, self.junctions, self.margin, lower)
         far = int((c.distance > lv).sum()) if len(v) else 0
         # distance is 1-Lipschitz: the distance to the body point bounds the distance to the
         # body from below, unless the vertex is inside it (behind its body point's normal)
-        clearance = np.where(np.einsum("ij,ij->i", v - c.points(bv, bf), at_body) < 0, np.inf, c.distance)
+        outward = np.einsum("ij,ij->i", v - c.points(body_vertices, body_faces), at_body)
+        clearance = np.where(outward < 0, np.inf, c.distance)
         e = topology_of(f, len(v), key=self.faces_key(i)).edges
         mean_edge = float(norms(rows(v, e[:, 0]) - rows(v, e[:, 1])).mean()) if len(e) else 0.0
         return Prepared(c, clearance, n, s, np.column_stack([s, border]), lv, skirt, far, mean_edge)
 
     def complete(self):
         """The entries of the garments not searched, for the result's first reader."""
-        rest = [i for i in range(len(self.garr)) if self.corr[i] is None]
+        rest = [i for i in range(len(self.garment_arrays)) if self.corr[i] is None]
         found = self._search([i for i in rest if self.given_corr[i] is None and self.kept(i) is None])
         for i in rest:
             self._prepare(i, found.get(i))
@@ -239,21 +240,21 @@ def carried(given, v, body, gap) -> BodyCorrespondence:
     Where a point has drifted away (DRIFT), the body is searched again for those vertices alone
     and the nearer point taken (SWITCH); elsewhere the binding stays, so the normals and parts
     read through it change only as smoothly as the body moves."""
-    bv, bf = body.vertices, body.faces
-    off = v - given.points(bv, bf)
+    body_vertices, body_faces = body.vertices, body.faces
+    off = v - given.points(body_vertices, body_faces)
     d = norms(off)
     checked = np.array(given.checked_distance(), dtype=np.float64, copy=True)
     # drifted: farther than when last checked, or beside the point rather than over or under it (the
     # cloth slid along the body: its nearest point is elsewhere, and "behind the point's normal" would
     # read as inside the body)
-    over = np.einsum("ij,ij->i", off, given.normals(body.normals, bf))
+    over = np.einsum("ij,ij->i", off, given.normals(body.normals, body_faces))
     drift = np.flatnonzero((d > np.maximum(DRIFT * checked, checked + gap)) | ((d > gap) & (np.abs(over) < ASIDE * d)))
     tri, bary = given.triangle, given.bary
     if len(drift):
         if len(drift) <= FEW:  # the carried point bounds the nearest: no body search built this frame
-            found = nearest_within(v[drift], d[drift], bv, bf, body.vertex_faces, body.longest_edge)
+            found = nearest_within(v[drift], d[drift], body_vertices, body_faces, body.vertex_faces, body.longest_edge)
         else:
-            found = nearest_on_surface(v[drift], bv, bf, search=body.search)
+            found = nearest_on_surface(v[drift], body_vertices, body_faces, search=body.search)
         take = found.distance < SWITCH * d[drift]
         tri, bary = tri.copy(), bary.copy()
         moved = drift[take]
@@ -303,28 +304,28 @@ def _swept_bound(v, near, nearest_distance, body, reach):
     return lo + ends.min(0), hi + ends.max(0)
 
 
-def _apart_before_search(garr, traced, body, reach, searchable):
+def _apart_before_search(garment_arrays, traced, body, reach, searchable):
     """Before any body search, clears ``traced`` (in place) for the garments whose box of
     v + R n' .. v - 3R n' (R = ``reach``: every stage's moves and rays stay in it, see
     GarmentPrep), bounded by _swept_bound, meets no other's. A garment not ``searchable``
     (its correspondence or normals given) keeps the box of v grown by 3R. Returns the nearest
     body vertices asked on the way, per garment, for its search."""
-    ids = [i for i in range(len(garr)) if traced[i]]
-    ask = [i for i in ids if searchable[i] and len(garr[i][0])]
+    ids = [i for i in range(len(garment_arrays)) if traced[i]]
+    ask = [i for i in ids if searchable[i] and len(garment_arrays[i][0])]
     # a garment whose own box meets another's is near it whatever its normals (the common case)
-    if len(ids) < 2 or not ask or all(near_another([box(garr[i][0]) for i in ids], 0.0)):
+    if len(ids) < 2 or not ask or all(near_another([box(garment_arrays[i][0]) for i in ids], 0.0)):
         return {}
-    asked = np.vstack([garr[i][0] for i in ask])
+    asked = np.vstack([garment_arrays[i][0] for i in ask])
     dist, near = body.search.tree.query(asked, k=min(2, body.search.tree.n), workers=tree_workers(len(asked)))
     dist, near = np.reshape(dist, (len(near), -1)), np.reshape(near, (len(near), -1))
-    start = np.cumsum([0] + [len(garr[i][0]) for i in ask])
+    start = np.cumsum([0] + [len(garment_arrays[i][0]) for i in ask])
     rows = {i: slice(a, b) for i, a, b in zip(ask, start[:-1], start[1:], strict=True)}
     boxes = []
     for i in ids:
         if i in rows:
-            boxes.append(_swept_bound(garr[i][0], near[rows[i]], dist[rows[i], 0], body, reach))
+            boxes.append(_swept_bound(garment_arrays[i][0], near[rows[i]], dist[rows[i], 0], body, reach))
         else:
-            lo, hi = box(garr[i][0])
+            lo, hi = box(garment_arrays[i][0])
             boxes.append((lo - 3 * reach, hi + 3 * reach))
     for i, near_other in zip(ids, near_another(boxes, 0.0), strict=True):
         traced[i] = near_other

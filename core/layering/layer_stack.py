@@ -14,14 +14,14 @@ class LayerStack:
     vertex's room in front of the body). Only the garments the pre-processing found near another
     (``active``) have their topology and scenes; the rest never move."""
 
-    def __init__(self, body, garr, prep, params):
-        n_g = len(garr)
+    def __init__(self, body, garment_arrays, prep, params):
+        n_g = len(garment_arrays)
         self.body, self.params, self.n_garments = body, params, n_g
-        self.rest = [v for v, _ in garr]  # as they came (lifted off the body: body_lift), for the body guard
+        self.rest = [v for v, _ in garment_arrays]  # as they came (lifted off the body: body_lift), for the body guard
         self.fitted = list(self.rest)  # as they came, always
-        self.verts = [v.copy() for v, _ in garr]
-        self.faces = [f for _, f in garr]
-        self.normals, self.probe_len, self.vseg2 = prep.normals, prep.probe_len, prep.vseg2
+        self.verts = [v.copy() for v, _ in garment_arrays]
+        self.faces = [f for _, f in garment_arrays]
+        self.normals, self.probe_len, self.junction_parts = prep.normals, prep.probe_len, prep.junction_parts
         self.active = prep.active
         # Faces never change, so each garment's edges, hem points and adjacency are found once,
         # and kept for the next frame of the same garments.

@@ -43,12 +43,12 @@ def mesh_arrays(mesh, name):
 
 def read_meshes(body, garments):
     """The body's and each garment's arrays, checked: (body vertices, body faces, [(v, f), ...])."""
-    bv, bf = mesh_arrays(body, "body")
-    if not len(bf):
+    body_vertices, body_faces = mesh_arrays(body, "body")
+    if not len(body_faces):
         raise ValueError("body has no faces: the garments need a body surface to take normals from")
     if garments is None or isinstance(garments, trimesh.Trimesh):
         raise ValueError("garments must be a list of meshes, inner to outer")
-    return bv, bf, [mesh_arrays(g, f"garments[{i}]") for i, g in enumerate(garments)]
+    return body_vertices, body_faces, [mesh_arrays(g, f"garments[{i}]") for i, g in enumerate(garments)]
 
 
 def inside_out(vertices, faces) -> bool:
@@ -109,16 +109,16 @@ class LayeringParameters:
     falloff: float | None
 
     @classmethod
-    def parse(cls, body, bv, bf, garr, body_segments, params) -> LayeringParameters:
-        """From resolve_layers' arguments, on the BodyFacts ``body`` of (bv, bf)."""
-        n_g = len(garr)
-        body_seg = _body_parts(body, bv, body_segments)
+    def parse(cls, body, body_vertices, body_faces, garment_arrays, body_segments, params) -> LayeringParameters:
+        """From resolve_layers' arguments, on the BodyFacts ``body`` of (body_vertices, body_faces)."""
+        n_g = len(garment_arrays)
+        body_seg = _body_parts(body, body_vertices, body_segments)
         g_segments = _per_garment(params.get("garment_segments"), n_g, "garment_segments")
         g_normals = _per_garment(params.get("global_normals"), n_g, "global_normals")
         g_corr = _per_garment(params.get("correspondence"), n_g, "correspondence")
         scheme, n_seg = _scheme_of(params.get("scheme"), body_seg, body_segments is not None)
         links = _links(params.get("segment_links"), scheme, n_seg)
-        diag, d, gap = _gaps(bv, params, n_g)
+        diag, d, gap = _gaps(body_vertices, params, n_g)
         given = _probe_given(params.get("probe_distance"), n_seg, diag)
         margin = float(params.get("segment_margin", 0.01 * diag))
         if not np.isfinite(margin) or margin < 0:
@@ -126,7 +126,7 @@ class LayeringParameters:
         falloff = params.get("falloff")
         if falloff is not None and not (np.isfinite(falloff) and falloff > 0):
             raise ValueError(f"falloff must be a finite distance > 0 (or None for four edge lengths), got {falloff}")
-        _check_garment_inputs(garr, len(bf), n_seg, (g_corr, g_normals, g_segments))
+        _check_garment_inputs(garment_arrays, len(body_faces), n_seg, (g_corr, g_normals, g_segments))
         return cls(offset=d, gap=gap, body_segments=body_seg, parts_given=body_segments is not None, scheme=scheme,
                    n_segments=n_seg, links=links, one_part=scheme is None and bool(links.all()), probe_given=given,
                    segment_margin=margin, diagonal=diag, garment_segments=g_segments, global_normals=g_normals,
@@ -136,13 +136,13 @@ class LayeringParameters:
                    falloff=None if falloff is None else float(falloff))
 
 
-def _body_parts(body, bv, body_segments):
+def _body_parts(body, body_vertices, body_segments):
     """The body's part id per vertex: as given, or its separate pieces (a figure modelled as parts)."""
     if body_segments is None:
         return body.pieces
     body_seg = np.asarray(body_segments)
-    if body_seg.shape != (len(bv),) or not np.issubdtype(body_seg.dtype, np.integer) or (body_seg < 0).any():
-        raise ValueError(f"body_segments must be {len(bv)} non-negative integers, one per body vertex")
+    if body_seg.shape != (len(body_vertices),) or not np.issubdtype(body_seg.dtype, np.integer) or (body_seg < 0).any():
+        raise ValueError(f"body_segments must be {len(body_vertices)} non-negative integers, one per body vertex")
     return body_seg.astype(np.int64)
 
 
@@ -175,9 +175,9 @@ def _links(links, scheme, n_seg):
     return links | links.T | np.eye(n_seg, dtype=bool)
 
 
-def _gaps(bv, params, n_g):
+def _gaps(body_vertices, params, n_g):
     """(the body's size, the offset between layers, the gap with the outward shells)."""
-    diag = size_of(bv)  # turning the scene must not change the defaults taken from it
+    diag = size_of(body_vertices)  # turning the scene must not change the defaults taken from it
     if diag <= 0:
         raise ValueError("body has zero size")
     d = float(params.get("offset", OFFSET_SHARE * diag))
@@ -202,10 +202,10 @@ def _probe_given(probe, n_seg, diag):
     return given
 
 
-def _check_garment_inputs(garr, n_body_faces, n_seg, per_garment):
+def _check_garment_inputs(garment_arrays, n_body_faces, n_seg, per_garment):
     """Every given per-garment input fits its garment (checked now: the untraced are prepared later)."""
     g_corr, g_normals, g_segments = per_garment
-    for i, (v, _) in enumerate(garr):
+    for i, (v, _) in enumerate(garment_arrays):
         c = g_corr[i]
         if c is not None and (len(c.triangle) != len(v) or (len(c.triangle) and c.triangle.max() >= n_body_faces)):
             raise ValueError(f"correspondence[{i}] is for another mesh: {len(c.triangle)} points for "

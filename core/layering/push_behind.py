@@ -47,9 +47,9 @@ def _probe(stack, k, aside, step, creases, skip):
     """(t, layer) of layer k's inward probes, each moved ``aside`` (``step`` long) off its vertex's line."""
     v, gap, normals = stack.verts[k], stack.gap, stack.normals
     start = v + aside + normals[k] * gap
-    traced = trace_layers(Probes(start, -normals[k], stack.probe_len[k] + gap, stack.vseg2[k], skip), stack.scenes,
-                          stack.above(k), HitRules(farthest=True, facing=(normals, normals[k]),
-                                                   creases=(creases, np.full(len(v), 10 * abs(step)))))
+    probes = Probes(start, -normals[k], stack.probe_len[k] + gap, stack.junction_parts[k], skip)
+    rules = HitRules(farthest=True, facing=(normals, normals[k]), creases=(creases, np.full(len(v), 10 * abs(step))))
+    traced = trace_layers(probes, stack.scenes, stack.above(k), rules)
     stack.rays["push"] += traced.rays
     stack.push_trace_s += traced.seconds
     return traced.t, traced.layer

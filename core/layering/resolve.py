@@ -85,29 +85,29 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
     t_start = time.perf_counter()
     timings = {}
     check_known(params)
-    bv, bf, garr = read_meshes(body, garments)
-    previous, params = _carried_in(previous, garr, params)
-    flipped = inside_out(bv, bf)
+    body_vertices, body_faces, garment_arrays = read_meshes(body, garments)
+    previous, params = _carried_in(previous, garment_arrays, params)
+    flipped = inside_out(body_vertices, body_faces)
     if flipped:
-        bf = bf[:, ::-1]  # resolved as the body it is: the result is the same either way
-    facts = body_facts(bv, bf)
+        body_faces = body_faces[:, ::-1]  # resolved as the body it is: the result is the same either way
+    facts = body_facts(body_vertices, body_faces)
     if previous is not None:
         facts.carry_radius(previous.body_radius)
         facts.carry_junctions(previous.body_junctions)
-    p = LayeringParameters.parse(facts, bv, bf, garr, body_segments, params)
+    p = LayeringParameters.parse(facts, body_vertices, body_faces, garment_arrays, body_segments, params)
 
     t0 = time.perf_counter()
     reach = probe_reach(facts, p)
-    prep = GarmentPrep(facts, garr, p, reach)
+    prep = GarmentPrep(facts, garment_arrays, p, reach)
     reach = widened(reach, prep, p, p.gap)
     timings["correspondence_s"] = time.perf_counter() - t0
 
-    stack = LayerStack(facts, garr, prep, p)
+    stack = LayerStack(facts, garment_arrays, prep, p)
     lifts = _lift(stack, prep, previous, timings)
     _fit_layers(stack, timings)
     _shorten_torn(stack)
     body_turn = facts.normals  # how the cloth turned since: as the body under each point did
-    n_eased = _ease(stack, garr, prep, previous, p.offset, body_turn)
+    n_eased = _ease(stack, garment_arrays, prep, previous, p.offset, body_turn)
     t0 = time.perf_counter()
     removed = _hidden_faces(stack) if p.remove_hidden else [np.zeros(len(f), dtype=bool) for f in stack.faces]
     last = previous if p.remove_hidden else None
@@ -116,32 +116,32 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
     timings["hidden_faces_s"] = time.perf_counter() - t0
 
     out, moved = [], []
-    for i, (v0, _) in enumerate(garr):
+    for i, (v0, _) in enumerate(garment_arrays):
         moved.append(stack.verts[i] - v0)
         # a mask's gather is slower than a copy where nothing was removed
         kept_faces = stack.faces[i][~removed[i]] if removed[i].any() else stack.faces[i].copy()
         out.append(trimesh.Trimesh(stack.verts[i], kept_faces, process=False, validate=False))
     timings["total_s"] = time.perf_counter() - t_start
     found = FoundOnBody(prep.traced, prep.normals, prep.corr, prep.vseg, prep.skirts,
-                        prep.complete if len(prep.active) < len(garr) else None)
+                        prep.complete if len(prep.active) < len(garment_arrays) else None)
     result = LayeringResult(out, moved, removed, {**_stats(stack, prep, reach, removed, timings),
                                                   "body_inside_out": flipped, "vertices_eased": n_eased}, found)
     # what the next frame carries on from (playback, frame bakes)
     result.frames_clear, result.frames_shown = clear, shown
     result.lifts = lifts
-    result.history = History(moved, [v for v, _ in garr], body_turn,
+    result.history = History(moved, [v for v, _ in garment_arrays], body_turn,
                              previous.history if previous is not None else None)
     result.body_radius = facts.radius_found
     result.body_junctions = facts.junctions_found()
     return result
 
 
-def _carried_in(previous, garr, params):
+def _carried_in(previous, garment_arrays, params):
     """(``previous`` if it is a result for these garments, else None; ``params`` with its body
     points filling in where no correspondence was given)."""
-    previous = previous if _same_garments(previous, garr) else None
+    previous = previous if _same_garments(previous, garment_arrays) else None
     if previous is not None:
-        given = list(params.get("correspondence") or [None] * len(garr))
+        given = list(params.get("correspondence") or [None] * len(garment_arrays))
         params = {**params, "correspondence": [c if c is not None else g
                                                 for c, g in zip(previous.found()[1], given, strict=True)]}
     return previous, params
@@ -170,13 +170,13 @@ def _shorten_torn(stack) -> None:
             stack.moved_by["relaxed"] += drawn
 
 
-def _ease(stack, garr, prep, previous, offset, body_turn) -> int:
+def _ease(stack, garment_arrays, prep, previous, offset, body_turn) -> int:
     """No jolt from the last frames (frame_coherence.eased); how many vertices were eased."""
     if previous is None or previous.history is None:
         return 0
     count = 0
     for k in stack.active:
-        smoothed, n = eased(stack.verts[k], garr[k][0], k, previous.history, offset,
+        smoothed, n = eased(stack.verts[k], garment_arrays[k][0], k, previous.history, offset,
                             BodyNow(prep.corr[k], body_turn, stack.body.faces))
         if n:
             count += n
@@ -184,13 +184,13 @@ def _ease(stack, garr, prep, previous, offset, body_turn) -> int:
     return count
 
 
-def _same_garments(previous, garr) -> bool:
+def _same_garments(previous, garment_arrays) -> bool:
     """Whether ``previous`` is a result for garments of these vertex and face counts."""
     if previous is None:
         return False
     moved, removed = previous.moved, previous.removed_faces
-    return len(moved) == len(garr) and all(len(m) == len(v) and len(r) == len(f)
-                                           for m, r, (v, f) in zip(moved, removed, garr, strict=True))
+    return len(moved) == len(garment_arrays) and all(len(m) == len(v) and len(r) == len(f)
+                                           for m, r, (v, f) in zip(moved, removed, garment_arrays, strict=True))
 
 
 def _fit_layers(stack, timings) -> None:
@@ -279,7 +279,7 @@ def _stats(stack, prep, reach, removed, timings) -> dict:
         "faces_removed": int(sum(r.sum() for r in removed)),
         "vertices_beyond_probe": prep.far,
         "vertices_far_from_body": _far_and_hidden(stack, prep, removed),
-        "vertices_on_part_borders": int(sum((stack.vseg2[i][:, 1] >= 0).sum() for i in active)),
+        "vertices_on_part_borders": int(sum((stack.junction_parts[i][:, 1] >= 0).sum() for i in active)),
         "scenes_built": stack.scenes_built(),
         "scenes_kept": stack.scenes_kept(),
         "garments_traced": len(active),

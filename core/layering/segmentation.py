@@ -185,14 +185,14 @@ def legs_apart(z, body_vertices, body_segments, scheme="S5", slab=0.015, cell=0.
     from scipy import ndimage
 
     scheme = get_scheme(scheme)
-    bv = np.asarray(body_vertices, dtype=np.float64)
-    band = np.abs(bv[:, 2] - z) < max(slab, 0.1)
+    body_vertices = np.asarray(body_vertices, dtype=np.float64)
+    band = np.abs(body_vertices[:, 2] - z) < max(slab, 0.1)
     if band.sum() >= 2:
-        nn, _ = cKDTree(bv[band]).query(bv[band], k=2)
+        nn, _ = cKDTree(body_vertices[band]).query(body_vertices[band], k=2)
         spacing = 2.0 * float(np.median(nn[:, 1]))
         slab, cell = max(slab, spacing), max(cell, spacing)
-    near = np.abs(bv[:, 2] - z) < slab
-    pts, seg = bv[near, :2], np.asarray(body_segments)[near]
+    near = np.abs(body_vertices[:, 2] - z) < slab
+    pts, seg = body_vertices[near, :2], np.asarray(body_segments)[near]
     left, right = np.isin(seg, scheme.leg_parts("left")), np.isin(seg, scheme.leg_parts("right"))
     if not left.any() or not right.any():
         return False
