@@ -63,10 +63,10 @@ class AxisymmetricFluid(LatticeFluid):
         u = self.u if u is None else u
         return super().divergence(u) + u[:, 0] / self.radius
 
-    def _viscous_operator(self, k):
+    def viscous_operator(self, k):
         key = ("operator", k)
         if key not in self._viscous:
-            lap, const = super()._viscous_operator(k)
+            lap, const = super().viscous_operator(k)
             inv_r = sp.diags(1.0 / self.radius)
             lap = lap + inv_r @ self._radial_gradient() @ self._unknowns(self._sign[:, k])
             if k == 0:
@@ -76,13 +76,13 @@ class AxisymmetricFluid(LatticeFluid):
             self._viscous[key] = (lap.tocsr(), const)
         return self._viscous[key]
 
-    def _pressure_operator(self):
-        return (super()._pressure_operator() +
+    def pressure_operator(self):
+        return (super().pressure_operator() +
                 sp.diags(1.0 / self.radius) @ self._radial_gradient() @ self._unknowns(np.ones(len(self._src)))).tocsr()
 
     _pin = -1  # the outer top corner, far from the body
 
-    def _left_null(self, lap, pin):
+    def left_null(self, lap, pin):
         """lap^T y = 0 but at the pin (which follows: lap's columns sum to zero), y at the pin 1."""
         transposed = lap.T.tolil()
         transposed[pin, :] = 0.0

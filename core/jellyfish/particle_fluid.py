@@ -163,7 +163,7 @@ class LatticeFluid:
         u = self._viscous_step(u, dt)
         t2 = time.perf_counter()
         if forcing is None:
-            u, dp = self._project(u, dt)
+            u, dp = self.project(u, dt)
             self.p = self.p + dp
         else:
             # the body's velocity imposed inside the projection; the field kept is the projected one:
@@ -171,7 +171,7 @@ class LatticeFluid:
             # from which the next advection makes momentum that a free body's momentum balance then
             # takes from the body (a bell swimming backwards)
             body = forcing.body(self.time + dt)
-            out = project_with_body(lambda f: self._project(f, dt), u, body, self.volume, self.forcing_corrections,
+            out = project_with_body(lambda f: self.project(f, dt), u, body, self.volume, self.forcing_corrections,
                                     self.forcing_tolerance)
             u, self.p, self.forcing_miss = out.u, out.p, out.miss
             self.forcing_taken = out.corrections
@@ -214,7 +214,7 @@ class LatticeFluid:
         if key not in self._viscous:
             if len(self._viscous) > 8:
                 self._viscous = {c: v for c, v in self._viscous.items() if c[0] == "operator"}
-            lap, const = self._viscous_operator(k)
+            lap, const = self.viscous_operator(k)
             shared = (*self._lattice_key(), "viscous", self.nu, dt, k)
             solver = FACTORS.get(shared)
             if solver is None:
@@ -232,8 +232,8 @@ class LatticeFluid:
             unit[0] = 1.0
             fft = lambda column: np.fft.rfft2(np.asarray(column).reshape(self.ny, self.nx))  # noqa: E731
             grad = self.gradient(unit)
-            lap = self._pressure_operator() @ unit
-            viscous = [self._viscous_operator(k)[0] @ unit for k in (0, 1)]
+            lap = self.pressure_operator() @ unit
+            viscous = [self.viscous_operator(k)[0] @ unit for k in (0, 1)]
             self._symbols = (fft(grad[:, 0]), fft(grad[:, 1]), fft(lap), [fft(v) for v in viscous])
         return self._symbols
 
@@ -264,7 +264,7 @@ class LatticeFluid:
                 lu, const = self._viscous_matrix(dt, k)
                 out[:, k] = lu.solve(rhs + dt * self.nu * const)
                 continue
-            lap, const = self._viscous_operator(k)
+            lap, const = self.viscous_operator(k)
             a = spla.LinearOperator((self.n, self.n), matvec=lambda x, lap=lap: x - dt * self.nu * (lap @ x))
             b = rhs + dt * self.nu * const
             # tolerance on the scale of the whole flow: a component that is only round-off
@@ -278,7 +278,9 @@ class LatticeFluid:
                 raise FluidBlowUp(f"the viscous solve did not converge (info {info}) at step {self.steps}")
         return out
 
-    def _viscous_operator(self, k):
+    def viscous_operator(self, k):
+        """(The viscous Laplacian of velocity component k as an (n, n) sparse matrix over the
+        particles, the constant the moving walls add to it), kept."""
         key = ("operator", k)
         if key not in self._viscous:
             lap = self._nb.laplacian_matrix(self.n0, self.lam, self._column,
@@ -290,14 +292,15 @@ class LatticeFluid:
         """The part of component k's viscous Laplacian the moving walls' ghosts add (zero at rest)."""
         return self._nb.laplacian(np.concatenate([np.zeros(self.n), self._offset[:, k]]), self.n0, self.lam)
 
-    def _pressure_operator(self):
+    def pressure_operator(self):
+        """The pressure Poisson operator (div grad) as an (n, n) sparse matrix over the particles."""
         return self._nb.laplacian_matrix(self.n0, self.lam, self._column)
 
     # the pressure is pinned at this particle (the walls and periodic sides fix it only up to a
     # constant; a bordered system would fill the factor densely), then shifted to mean zero
     _pin = 0
 
-    def _left_null(self, lap, pin):
+    def left_null(self, lap, pin):
         """The vector the Poisson right-hand side must be orthogonal to; None: the constant (the
         planar operator is symmetric)."""
         return None
@@ -312,7 +315,7 @@ class LatticeFluid:
         if self._pressure is None:
             self._pressure = FACTORS.get(key)
         if self._pressure is None:
-            lap = self._pressure_operator().tolil()
+            lap = self.pressure_operator().tolil()
             pin = self._pin if self._pin >= 0 else self.n + self._pin
             pinned = lap.copy()
             pinned[pin, :] = 0.0
@@ -321,11 +324,12 @@ class LatticeFluid:
             solver = self.pressure_solver
             factor = (spla.splu(pinned.tocsc()) if solver == "direct"
                       else AxialModes(lap, self.nx, self.ny, pin=pin % self.nx) if solver == "modes" else None)
-            self._pressure = (lap, factor, self._left_null(lap, pin) if factor is not None else None, pin)
+            self._pressure = (lap, factor, self.left_null(lap, pin) if factor is not None else None, pin)
             FACTORS.put(key, self._pressure, nbytes(self._pressure))
         return self._pressure
 
-    def _project(self, u, dt):
+    def project(self, u, dt):
+        """(``u`` made divergence-free, the pressure that does it over a step ``dt``)."""
         if self.pressure_solver == "spectral":
             gx, gy, lap, _ = self._spectral_symbols()
             div = gx * self._field(u[:, 0]) + gy * self._field(u[:, 1])

@@ -22,7 +22,7 @@ def test_a_viscous_step_by_modes_is_scipys_sparse_solve(k, stiffness):
     """I - s L for u_r (odd at the axis, with its -u_r/r^2) and u_z, from a weak step to one ten
     thousand times stiffer than the lattice's diffusion limit."""
     f = _round()
-    lap, _ = f._viscous_operator(k)
+    lap, _ = f.viscous_operator(k)
     a = (sp.identity(f.n) - stiffness * f.h**2 * lap).tocsr()
     b = np.random.default_rng(k).normal(size=f.n)
     ref = spla.spsolve(a.tocsc(), b)
@@ -52,8 +52,8 @@ def test_the_pressure_by_modes_is_the_sparse_lus_up_to_the_constant():
     right-hand side made solvable with its left null vector, modes and scipy's LU of the pinned
     system give the same pressure once both are shifted to mean zero."""
     f = _round()
-    lap = f._pressure_operator().tocsr()
-    null = f._left_null(lap, f.n - 1)
+    lap = f.pressure_operator().tocsr()
+    null = f.left_null(lap, f.n - 1)
     rhs = np.random.default_rng(5).normal(size=f.n)
     b = rhs - null @ rhs / null.sum()
     pinned = lap.tolil()
@@ -94,7 +94,7 @@ def test_modes_are_the_default_round_the_axis_and_step_as_the_sparse_lu_does():
 
 def test_an_operator_not_the_same_at_every_row_is_refused():
     f = _round()
-    lap = f._pressure_operator().tolil()
+    lap = f.pressure_operator().tolil()
     lap[3 * f.nx + 2, 3 * f.nx + 2] += 1.0  # one particle unlike its row's neighbours above and below
     with pytest.raises(ValueError, match="not the same at every row"):
         AxialModes(lap.tocsr(), f.nx, f.ny)

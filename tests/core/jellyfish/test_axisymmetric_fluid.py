@@ -72,11 +72,11 @@ def test_the_projection_removes_the_divergence_and_keeps_the_axial_momentum():
     u = np.column_stack([np.sin(np.pi * r / RADIUS) * np.cos(k * z),
                          np.cos(np.pi * r / RADIUS) + np.sin(2 * k * z) + 0.3 * np.cos(3 * k * z)])
     before = (u[:, 1] * f.volume).sum()
-    projected, _ = f._project(u, 0.01)
+    projected, _ = f.project(u, 0.01)
     assert (projected[:, 1] * f.volume).sum() == pytest.approx(before, rel=1e-10)
     divergence = np.abs(f.divergence(u)).max()
     assert np.abs(f.divergence(projected)).max() < 0.01 * divergence
-    twice, _ = f._project(projected, 0.01)
+    twice, _ = f.project(projected, 0.01)
     assert np.abs(f.divergence(twice)).max() < 1e-3 * divergence
     # no net source: what flows out of the lattice's rings flows into others
     assert abs((f.divergence(projected) * f.volume).sum()) < 1e-9 * divergence * f.volume.sum()

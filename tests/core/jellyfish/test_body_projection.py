@@ -27,7 +27,7 @@ def dense_answer(f, u, body, dt):
     free speed U, make the projected field's values on the body nearest the body's velocity
     (+ U), g keeping the momentum exactly (g = a particular solution + scipy's null space of the
     momentum row)."""
-    project = lambda v: f._project(v, dt)[0]  # noqa: E731
+    project = lambda v: f.project(v, dt)[0]  # noqa: E731
     mask, k, free = body.mask, int(body.mask.sum()), body.free_axis
     base = u.copy()
     base[mask] = 0.0
@@ -63,7 +63,7 @@ def test_corrections_converge_to_the_dense_constrained_projection(free):
     momentum = float(u[:, 1] @ f.volume)
     body = ImposedBody(disc, own, free_axis=free, momentum=momentum)
     exact_u, exact_speed = dense_answer(f, u, body, 0.01)
-    project = lambda v: f._project(v, 0.01)  # noqa: E731
+    project = lambda v: f.project(v, 0.01)  # noqa: E731
     runs = [project_with_body(project, u, body, f.volume, c) for c in (0, 1, 2, 4, 8, 40)]
     errors = [np.abs(r.u - exact_u).max() for r in runs]
     # each correction is a GMRES step on the bordered system: the miss never grows, and
@@ -88,23 +88,23 @@ def test_a_body_the_field_already_carries_costs_no_correction():
     f, _, disc, _ = disc_in_a_swirl()
     x, y = f.points.T
     u = np.column_stack([np.sin(2 * np.pi * y), np.cos(2 * np.pi * x)])
-    r = project_with_body(lambda v: f._project(v, 0.01), u, ImposedBody(disc, u[disc]), f.volume, 4)
+    r = project_with_body(lambda v: f.project(v, 0.01), u, ImposedBody(disc, u[disc]), f.volume, 4)
     assert np.abs(r.u - u).max() < 1e-10 and r.miss < 1e-10
 
 
 def test_an_empty_body_is_the_plain_projection():
     f, u, disc, _ = disc_in_a_swirl()
     empty = np.zeros(f.n, bool)
-    r = project_with_body(lambda v: f._project(v, 0.01), u, ImposedBody(empty, np.zeros((0, 2)), 1), f.volume, 3)
-    np.testing.assert_allclose(r.u, f._project(u, 0.01)[0], atol=1e-14)
+    r = project_with_body(lambda v: f.project(v, 0.01), u, ImposedBody(empty, np.zeros((0, 2)), 1), f.volume, 3)
+    np.testing.assert_allclose(r.u, f.project(u, 0.01)[0], atol=1e-14)
 
 
 def test_bad_corrections_are_refused():
     f, u, disc, own = disc_in_a_swirl(8)
     with pytest.raises(ValueError, match="corrections"):
-        project_with_body(lambda v: f._project(v, 0.01), u, ImposedBody(disc, own), f.volume, -1)
+        project_with_body(lambda v: f.project(v, 0.01), u, ImposedBody(disc, own), f.volume, -1)
     with pytest.raises(ValueError, match="tolerance"):
-        project_with_body(lambda v: f._project(v, 0.01), u, ImposedBody(disc, own), f.volume, 4, tolerance=0.0)
+        project_with_body(lambda v: f.project(v, 0.01), u, ImposedBody(disc, own), f.volume, 4, tolerance=0.0)
 
 
 @pytest.mark.parametrize("free", [None, 1])
@@ -116,7 +116,7 @@ def test_corrections_stop_at_the_tolerance_and_no_sooner(free):
     f, u, disc, own = disc_in_a_swirl()
     momentum = float(u[:, 1] @ f.volume)
     body = ImposedBody(disc, own, free_axis=free, momentum=momentum)
-    project = lambda v: f._project(v, 0.01)  # noqa: E731
+    project = lambda v: f.project(v, 0.01)  # noqa: E731
     exact_u, _ = dense_answer(f, u, body, 0.01)
     # the fastest speed imposed: the body's own motion, plus the free speed its momentum asks at first
     target = own.copy()
