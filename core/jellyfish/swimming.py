@@ -3,7 +3,7 @@ by its creature's space map inside the particle fluid, and swims by what it push
 for a stroke is ``stroke_search``.
 
 The bell acts on the fluid by direct forcing: lattice particles inside the bell (or closer to
-its contour than ``min_thickness`` / 2, so the thin margin still blocks the flow) take the
+its contour than half the margin's thickness, so the thin margin still blocks the flow) take the
 bell's velocity, its deformation rate (the space map's, scaled so the tissue keeps its volume:
 ``SolidBell``) plus its swimming speed V along the axis. The water is round the bell's axis
 (``fluid="axisymmetric"``, the default) or the thesis' plane (``waters``); it wraps along the axis, and
@@ -25,6 +25,9 @@ from .fitness import FitnessScales, fitness
 from .particle_fluid import LatticeFluid
 from .waters import lattice_for, water
 
+# the thinnest the bell's margin is on a coarse lattice, in particle spacings
+COVER_SPACINGS = 1.5
+
 
 @dataclass(frozen=True)
 class JellyfishConfig:
@@ -40,7 +43,13 @@ class JellyfishConfig:
     viscosity: float = 1.0e-5
     density: float = 1000.0
     weights: tuple = (0.4, 0.3, 0.3)  # w_d, w_b, w_e of eq. 3.14
-    min_thickness_cells: float = 1.5
+    # the thinnest the bell is taken to be (its margin), a share of its diameter (3 mm of the
+    # default 10 cm): particles within half of it of the contour move with the bell, so its thin
+    # margin still blocks the flow. The same body on every lattice from the default's (where it is
+    # 1.5 spacings) finer; on a coarser one at least COVER_SPACINGS, so that the margin still covers
+    # a particle in every row. Held in spacings everywhere, the bell thinned and lightened as the
+    # lattice refined (REPORT, stop 65)
+    margin_thickness: float = 0.03
     cfl: float = 1.0
     # GMRES corrections of the bell's velocity after each inner step's projection, one projection
     # each, until the bell's imposed velocity is met to forcing_tolerance of its fastest speed (root
@@ -67,6 +76,9 @@ class JellyfishConfig:
             raise ValueError(f"substeps must be >= 1, got {self.substeps}")
         if not (np.isfinite(self.period) and self.period > 0):
             raise ValueError(f"period must be finite and > 0, got {self.period}")
+        if not (np.isfinite(self.margin_thickness) and 0 < self.margin_thickness < 0.5):
+            raise ValueError(f"margin_thickness is a share of the bell's diameter, > 0 and < 0.5, got "
+                             f"{self.margin_thickness}")
         if self.box <= self.bell.diameter:
             raise ValueError(f"the box ({self.box} m) must be wider than the bell ({self.bell.diameter} m)")
         water(self.fluid).check(self)
@@ -156,7 +168,7 @@ class BellForcing:
         self.speed = 0.0
         self.mask = np.zeros(fluid.n, dtype=bool)
         self.momentum0 = 0.0
-        self.reach = 0.5 * config.min_thickness_cells * fluid.h
+        self.reach = 0.5 * max(config.margin_thickness * config.bell.diameter, COVER_SPACINGS * fluid.h)
         self._at, self._covered, self._rate, self._body = None, None, None, None
         self.solid = SolidBell(config.bell, bell_map, kind)
 

@@ -70,7 +70,8 @@ def test_an_almost_instant_contraction_is_split_into_small_steps():
 
 
 @pytest.mark.parametrize("bad, match", [(dict(substeps=0), "substeps"), (dict(period=0.0), "period"),
-                                        (dict(box=0.05), "wider")])
+                                        (dict(box=0.05), "wider"), (dict(margin_thickness=0.0), "margin"),
+                                        (dict(margin_thickness=float("nan")), "margin")])
 def test_bad_configurations_are_refused(bad, match):
     with pytest.raises(ValueError, match=match):
         default_config(**bad)
