@@ -39,7 +39,8 @@ class JellyfishConfig:
     # m^2/s: ten times water's. A 100 x 100 lattice (2 mm) does not resolve water's boundary layers
     # (a Stokes layer sqrt(nu T / pi) of 0.6 mm): its cruising path then depends on the time step by
     # -20% to +55%, set by the advection's own damping. At 1e-5 (a Reynolds number of about 100 on
-    # the bell, where 2D jellyfish studies work) steps, corrections and lattice agree within 20% (REPORT)
+    # the bell, where 2D jellyfish studies work) steps and corrections agree within 15%; the lattice
+    # does not yet (a 400 x 400 one swims 30-40% less far: REPORT, stop 65)
     viscosity: float = 1.0e-5
     density: float = 1000.0
     weights: tuple = (0.4, 0.3, 0.3)  # w_d, w_b, w_e of eq. 3.14
