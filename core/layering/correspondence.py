@@ -304,8 +304,14 @@ def nearest_within(points, bound, vertices, faces, vertex_faces, longest=None) -
                                     for a, b in ((0, 1), (1, 2), (0, 2)))))
     bound = np.asarray(bound, dtype=np.float64) * (1 + 1e-9)
     reach = (bound + longest) ** 2
-    d2 = (points * points).sum(1)[:, None] - 2 * points @ vertices.T + (vertices * vertices).sum(1)[None]
+    # only the vertices in the points' box grown by the farthest reach can be in reach of one
+    grow = float(np.sqrt(reach.max() + 1e-12 * longest * longest)) * (1 + 1e-9)
+    lo, hi = points.min(0) - grow, points.max(0) + grow
+    near = np.flatnonzero(((vertices >= lo) & (vertices <= hi)).all(1))
+    some = vertices[near]
+    d2 = (points * points).sum(1)[:, None] - 2 * points @ some.T + (some * some).sum(1)[None]
     pi, vi = np.nonzero(d2 <= reach[:, None] + 1e-12 * longest * longest)
+    vi = near[vi]
     start, tris = vertex_faces
     counts = start[vi + 1] - start[vi]
     pair_point = np.repeat(pi, counts)

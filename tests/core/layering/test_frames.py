@@ -321,3 +321,22 @@ def test_a_body_that_flips_in_a_frame_does_not_turn_the_correction():
     np.testing.assert_allclose(two[:2], turned(d, a, b)[:2], atol=1e-15)  # within twice the full turn
     assert 0 < np.linalg.norm(two[2] - d[2]) < np.linalg.norm(turned(d, a, b)[2] - d[2])
     np.testing.assert_array_equal(two[3], d[3])
+
+
+def test_the_nearest_within_a_tight_bound_is_found_for_a_point_alone():
+    """One point at a time, its bound barely more than its true nearest distance (a body point
+    carried from the last frame that is still the nearest): only the body near that point is
+    searched, and what is found is still brute force's nearest."""
+    from core.geometry.topology import topology_of
+    from core.layering.correspondence import nearest_within
+
+    body = lower_body()[0]
+    faces = np.asarray(body.faces, dtype=np.int64)
+    vertex_faces = topology_of(faces, len(body.vertices)).vertex_faces
+    rng = np.random.default_rng(11)
+    p = body.bounds[0] - 0.05 + rng.random((40, 3)) * (np.ptp(body.bounds, axis=0) + 0.1)
+    tri = body.triangles
+    for q in p:
+        dist = np.linalg.norm(trimesh.triangles.closest_point(tri, np.repeat(q[None], len(tri), 0)) - q, axis=1).min()
+        found = nearest_within(q[None], [dist * 1.001 + 1e-9], body.vertices, faces, vertex_faces)
+        np.testing.assert_allclose(found.distance, [dist], atol=1e-9)
