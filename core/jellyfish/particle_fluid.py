@@ -315,18 +315,22 @@ class LatticeFluid:
         if self._pressure is None:
             self._pressure = FACTORS.get(key)
         if self._pressure is None:
-            lap = self.pressure_operator().tolil()
+            lap = self.pressure_operator().tocsr()
             pin = self._pin if self._pin >= 0 else self.n + self._pin
-            pinned = lap.copy()
-            pinned[pin, :] = 0.0
-            pinned[pin, pin] = 1.0
-            lap = lap.tocsr()
             solver = self.pressure_solver
-            factor = (spla.splu(pinned.tocsc()) if solver == "direct"
+            factor = (spla.splu(self._pinned(lap, pin)) if solver == "direct"
                       else AxialModes(lap, self.nx, self.ny, pin=pin % self.nx) if solver == "modes" else None)
             self._pressure = (lap, factor, self.left_null(lap, pin) if factor is not None else None, pin)
             FACTORS.put(key, self._pressure, nbytes(self._pressure))
         return self._pressure
+
+    @staticmethod
+    def _pinned(lap, pin):
+        """``lap`` with its row ``pin`` made the identity's, for the sparse LU (csc)."""
+        pinned = lap.tolil()
+        pinned[pin, :] = 0.0
+        pinned[pin, pin] = 1.0
+        return pinned.tocsc()
 
     def project(self, u, dt):
         """(``u`` made divergence-free, the pressure that does it over a step ``dt``)."""
