@@ -130,7 +130,7 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
     result.frames_clear, result.frames_shown = clear, shown
     result.lifts = lifts
     result.history = History(moved, [v for v, _ in garment_arrays], body_turn,
-                             previous.history if previous is not None else None)
+                             previous.history if previous is not None else None, stack.body.vertices)
     result.body_radius = facts.radius_found
     result.body_junctions = facts.junctions_found()
     return result
@@ -177,7 +177,7 @@ def _ease(stack, garment_arrays, prep, previous, offset, body_turn) -> int:
     count = 0
     for k in stack.active:
         smoothed, n = eased(stack.verts[k], garment_arrays[k][0], k, previous.history, offset,
-                            BodyNow(prep.corr[k], body_turn, stack.body.faces))
+                            BodyNow(prep.corr[k], body_turn, stack.body.faces, stack.body.vertices))
         if n:
             count += n
             stack.moved(k, smoothed)
