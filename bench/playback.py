@@ -2,7 +2,10 @@
 Armature modifiers, Subdivision 1/2 as MakeHuman's proxies are meant to be seen) played over the
 rest-to-run ramp with the handler off and on: what a frame change costs, and what the handler adds,
 with the share of the computing (core's resolve and the covered skin, what a worker thread
-could run). The stages the handler runs are timed by the resolve's stats.
+could run); and played as the viewport plays (between the playback start and stop handlers) with
+While Playing, Resolve Every 2 and 3, where the frames between show the last resolve's correction
+(their median is a skipped frame's: the mean says what playback costs). The stages the handler
+runs are timed by the resolve's stats.
 
     .venv/bin/python -m bench.playback      # writes the section of docs/REPORT.md (~1 min)
 """
@@ -17,12 +20,17 @@ from bench.report import machine, table, write_section
 FRAMES = range(1, 25)
 
 
-def play(scene, on: bool, resolve_job):
+def play(scene, on: bool, resolve_job, handler=None, step=1):
+    """Frame changes over FRAMES: (ms each after the first, ms of computing each resolve). With
+    ``handler``, as viewport playback resolving every ``step``-th frame."""
     import bpy
 
     scene.deformrt.resolve_on_frame_change = False
     scene.frame_set(FRAMES[0])
     scene.deformrt.resolve_on_frame_change = on
+    scene.deformrt.playback_step = step
+    if handler is not None:
+        handler.on_playback_start(scene)
     seconds, core = [], []
     original = resolve_job.compute_resolve
 
@@ -41,7 +49,10 @@ def play(scene, on: bool, resolve_job):
             seconds.append(time.perf_counter() - t0)
     finally:
         resolve_job.compute_resolve = original
+        if handler is not None:
+            handler.on_playback_stop(scene)
         scene.deformrt.resolve_on_frame_change = False
+        scene.deformrt.playback_step = 1
     return np.array(seconds[1:]) * 1000, np.array(core[1:]) * 1000
 
 
@@ -53,19 +64,26 @@ def main():
 
     makehuman = import_module(f"{pkg.__name__}.sample_scenes.makehuman")
     resolve_job = import_module(f"{pkg.__name__}.addon.layers.resolve_job")
+    handler = import_module(f"{pkg.__name__}.addon.layers.frame_handler")
     rows = []
     for subdivision in (True, False):
         bpy.ops.wm.read_homefile(use_empty=True)
         makehuman.build_animated(subdivision=subdivision)
         scene = bpy.context.scene
         off, _ = play(scene, False, resolve_job)
-        on, core = play(scene, True, resolve_job)
         label = "Subdivision 1/2 on every mesh" if subdivision else "no Subdivision"
-        rows.append([label, f"{np.median(off):.0f}", f"{np.median(on):.0f} / {on.max():.0f}",
-                     f"{np.median(on) - np.median(off):.0f}", f"{np.median(core):.0f}"])
-        print(" | ".join(rows[-1]), flush=True)
-    body = table(["scene", "frame change, handler off (ms, median)", "handler on (median / max)",
-                  "the handler adds", "of which the computing (core resolve, covered skin)"], rows)
+        ways = [("every frame (frame_set)", None, 1)]
+        if subdivision:
+            ways += [("playing, Resolve Every 2", handler, 2), ("playing, Resolve Every 3", handler, 3)]
+        for way, playing, step in ways:
+            on, core = play(scene, True, resolve_job, playing, step)
+            rows.append([label, way, f"{np.median(off):.0f}", f"{np.median(on):.0f} / {on.mean():.0f} / {on.max():.0f}",
+                         f"{np.median(on) - np.median(off):.0f} / {on.mean() - off.mean():.0f}",
+                         f"{np.median(core):.0f}"])
+            print(" | ".join(rows[-1]), flush=True)
+    body = table(["scene", "resolved", "frame change, handler off (ms, median)", "handler on (median / mean / max)",
+                  "the handler adds (median / mean)", "the computing of a resolve (core resolve, covered skin)"],
+                 rows)
     write_section("playback", "Resolve on Frame Change in Blender: a rigged MakeHuman character",
                   f"{machine()}. {__doc__.split(chr(10) + chr(10))[0]}\n\n{body}")
 

@@ -14,6 +14,10 @@ from .scene_read import LayeringInputError, layered_objects
 _busy = False
 _seen = {}  # scene name: resolve_on_frame_change as last acted on
 _replay = None  # while a frame bake writes its cache: (frame: writes, the bake's signals)
+# Viewport playback (between animation_playback_pre and _post): frames since the last resolve, and
+# whether the frame shown now needs resolving when playback stops (left to the last resolve, or
+# resolved without the cage check that keeps a result off a mesh it was not made for).
+_playback = {"playing": False, "since": None, "redo": False}
 
 
 @contextmanager
@@ -81,9 +85,21 @@ def on_frame_change(scene, _depsgraph=None):
     _notice_switch(scene)
     if _busy or not scene.deformrt.resolve_on_frame_change:
         return
+    step = scene.deformrt.playback_step if _playback["playing"] else 1
+    since = _playback["since"]
+    if step > 1 and since is not None and since + 1 < step:
+        # the modifier shows the last resolve's offsets on this frame's pose (docs/REPORT.md: poke-through
+        # under 0.02% a frame after on the ramps and a walk)
+        _playback["since"] += 1
+        _playback["redo"] = True
+        return
     _busy = True  # reading the scene re-evaluates it; never re-enter
     try:
-        correct_frame(scene)
+        if step == 1:
+            correct_frame(scene)
+        else:
+            correct_frame(scene, step)
+        _playback["since"], _playback["redo"] = (0, True) if step > 1 else (None, False)
     except (ValueError, RuntimeError) as exc:
         # a handler cannot report to the user: say it once in the panel and the console
         message = f"Resolve on frame change stopped at frame {scene.frame_current}: {exc}"
@@ -111,15 +127,31 @@ def restarting_cloth(scene, objects):
     return out
 
 
-def correct_frame(scene):
-    """The layering of the current frame (what the handler runs); returns its summary."""
+@persistent
+def on_playback_start(scene, _depsgraph=None):
+    _playback.update(playing=True, since=None, redo=False)
+
+
+@persistent
+def on_playback_stop(scene, _depsgraph=None):
+    """Playback stopped: the frame it stopped on is resolved as stepping to it would, if playback
+    left it to the last resolve or resolved it without the cage check."""
+    redo = _playback["redo"]
+    _playback.update(playing=False, since=None, redo=False)
+    if redo:
+        on_frame_change(scene)
+
+
+def correct_frame(scene, step=1):
+    """The layering of the current frame (what the handler runs); returns its summary. ``step`` > 1:
+    playback resolves every ``step``-th frame (the last resolve is ``step`` frames back or nearer)."""
     _, garments = layered_objects(scene)
     restarting = restarting_cloth(scene, garments)
     if restarting:
         raise LayeringInputError(
             f"{', '.join(restarting)}: bake the cloth first (Physics > Cache > Bake All Dynamics) or turn this "
             "on at the simulation's first frame; adding DeformRT's result restarts an unbaked simulation")
-    return resolve_job.resolve_scene(scene, playing=True)
+    return resolve_job.resolve_scene(scene, playing=True, step=step)
 
 
 def register():
@@ -127,6 +159,10 @@ def register():
         bpy.app.handlers.frame_change_post.append(on_frame_change)
     if on_depsgraph_update not in bpy.app.handlers.depsgraph_update_post:
         bpy.app.handlers.depsgraph_update_post.append(on_depsgraph_update)
+    if on_playback_start not in bpy.app.handlers.animation_playback_pre:
+        bpy.app.handlers.animation_playback_pre.append(on_playback_start)
+    if on_playback_stop not in bpy.app.handlers.animation_playback_post:
+        bpy.app.handlers.animation_playback_post.append(on_playback_stop)
 
 
 def unregister():
@@ -134,5 +170,10 @@ def unregister():
         bpy.app.handlers.frame_change_post.remove(on_frame_change)
     while on_depsgraph_update in bpy.app.handlers.depsgraph_update_post:
         bpy.app.handlers.depsgraph_update_post.remove(on_depsgraph_update)
+    while on_playback_start in bpy.app.handlers.animation_playback_pre:
+        bpy.app.handlers.animation_playback_pre.remove(on_playback_start)
+    while on_playback_stop in bpy.app.handlers.animation_playback_post:
+        bpy.app.handlers.animation_playback_post.remove(on_playback_stop)
+    _playback.update(playing=False, since=None, redo=False)
     frame_memory.forget()
     _seen.clear()

@@ -31,13 +31,14 @@ def keep_correspondence(cache: dict) -> None:
         _correspondence.put(key, value)
 
 
-def carried(key, frame) -> dict:
+def carried(key, frame, step=1) -> dict:
     """core parameters for resolving ``frame`` of the meshes ``key`` after the last frame: on the
-    frame next to it (playback), that result and its body points; after a jump (or on a first
-    frame) nothing, so the body is searched afresh: a frame looks the same whichever frame one
-    came from, and a bake of a range holds what playing it shows."""
+    frame next to it (playback; ``step`` frames away or nearer where playback resolves every
+    step-th frame), that result and its body points; after a jump (or on a first frame) nothing,
+    so the body is searched afresh: a frame looks the same whichever frame one came from, and a
+    bake of a range holds what playing it shows."""
     last = _last_frame.get(key)
-    if last is None or abs(frame - last[0]) != 1:
+    if last is None or not 1 <= abs(frame - last[0]) <= step:
         return {}
     params = {"previous": last[1]}
     # body points carried from the last frame; the kept ones fill in for a garment it did not trace

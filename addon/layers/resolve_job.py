@@ -79,6 +79,7 @@ class ResolveJob:
     body_made_for: str
     read_s: float
     t0: float
+    step: int = 1  # playback resolving every step-th frame: the frames between show these offsets
 
 
 @dataclass
@@ -115,9 +116,9 @@ def _params(settings, scene_read) -> dict:
     return params
 
 
-def prepare_resolve(scene, playing=False) -> ResolveJob:
+def prepare_resolve(scene, playing=False, step=1) -> ResolveJob:
     """Read and check the scene (main thread). ``playing`` (playback, frame bakes): a frame next to
-    the last one resolved starts from it (frame_memory)."""
+    the last one resolved (``step`` frames away or nearer) starts from it (frame_memory)."""
     settings = scene.deformrt
     t0 = time.perf_counter()
     read = read_scene(scene, settings.scheme, playing=playing)
@@ -130,7 +131,7 @@ def prepare_resolve(scene, playing=False) -> ResolveJob:
     params = _params(settings, read)
     key = frame_memory.topology_key([read.body, *read.garments], read.arrays)
     if playing:
-        params.update(frame_memory.carried(key, scene.frame_current))
+        params.update(frame_memory.carried(key, scene.frame_current, step))
     prints = {}  # the body's read once
     made_for = [staleness.fingerprint(g, read.body, prints) for g in read.garments]
     body_made_for = staleness.fingerprint(read.body, read.body, prints)
@@ -138,7 +139,7 @@ def prepare_resolve(scene, playing=False) -> ResolveJob:
                       parts_source=read.parts_source, key=key, playing=playing, frame=scene.frame_current,
                       scheme=settings.scheme, parts_known=read.parts is not None, made_for=made_for,
                       hide_skin=settings.hide_covered_skin, body_made_for=body_made_for,
-                      read_s=time.perf_counter() - t0, t0=t0)
+                      read_s=time.perf_counter() - t0, t0=t0, step=step)
 
 
 def compute_resolve(job: ResolveJob) -> ResolveOutput:
@@ -193,7 +194,9 @@ def finish_resolve(scene, job: ResolveJob, output: ResolveOutput) -> ResolveSumm
         hidden = np.zeros(a.n_polygons, dtype=bool)
         hidden[a.triangle_polygon[removed]] = True
         faces_hidden.append(int(hidden.sum()))
-        results.write(scene, obj, results.Shown(moved @ to_local.T, hidden, made_for=made_for, cage=_local(a)))
+        # no cage while playback leaves frames to this result: they show it on poses it was not made for
+        cage = _local(a) if job.step == 1 else None
+        results.write(scene, obj, results.Shown(moved @ to_local.T, hidden, made_for=made_for, cage=cage))
     if output.skin_hidden is None:  # without Hide Covered Skin the body shows whole
         results.clear(job.body)
     else:  # a result of the body's own, no moves
@@ -216,19 +219,20 @@ def finish_resolve(scene, job: ResolveJob, output: ResolveOutput) -> ResolveSumm
     return summary
 
 
-def resolve_scene(scene, progress=None, playing=False) -> ResolveSummary:
+def resolve_scene(scene, progress=None, playing=False, step=1) -> ResolveSummary:
     """Resolve the scene's tagged garments and show the result on them (non-destructively).
 
     ``playing`` (playback, frame bakes): a frame next to the last one resolved starts from it: its
     body points carried through the motion, its hidden faces held, its correction eased (core
-    frame_coherence); any other frame is resolved afresh."""
-    step = progress or (lambda _k: None)
-    job = prepare_resolve(scene, playing)
-    step(1)
+    frame_coherence); any other frame is resolved afresh. ``step`` > 1: playback resolves every
+    step-th frame and the frames between show this result (no cage check, frame_handler)."""
+    tick = progress or (lambda _k: None)
+    job = prepare_resolve(scene, playing, step)
+    tick(1)
     output = compute_resolve(job)
-    step(2)
+    tick(2)
     summary = finish_resolve(scene, job, output)
-    step(3)
+    tick(3)
     return summary
 
 

@@ -102,6 +102,8 @@ class DEFORMRT_PT_resolve(bpy.types.Panel):
         row.operator("deformrt.resolve_layers", icon="MOD_CLOTH")
         row.operator("deformrt.inspect_layers", icon="VIEWZOOM")
         layout.prop(settings, "resolve_on_frame_change")
+        if settings.resolve_on_frame_change:
+            layout.prop(settings, "playback_step")
         lines = report_lines(report.read(context.scene), scene_units.formatter(context.scene))
         if lines:
             box = layout.box().column(align=True)

@@ -372,6 +372,63 @@ def test_resolve_on_frame_change_follows_the_pose_and_bake_frames_writes_it(exte
         np.testing.assert_allclose(evaluated(imported[g.name])[0], v, atol=1e-5)
 
 
+def _cage_known(results, nodes, obj):
+    data = results.data_object(obj).data
+    values = np.empty(len(data.vertices), dtype=bool)
+    data.attributes[nodes.CAGE_KNOWN_ATTRIBUTE].data.foreach_get("value", values)
+    return values
+
+
+def test_playback_resolving_every_second_frame_shows_the_last_correction_between(extension, clean_scene,
+                                                                                  monkeypatch):
+    """While playing with Resolve Every 2: frame 1 is resolved, frame 2 left to it (the garment shows
+    frame 1's correction on frame 2's pose: no cage check on a result playback leaves frames to),
+    and the frame playback stops on is resolved as stepping to it would, its cage back (also where
+    playback had resolved it, without the cage). Not playing, every frame."""
+    results = sub(extension, "addon.layers.results")
+    nodes = sub(extension, "addon.layers.result_nodes")
+    handler = sub(extension, "addon.layers.frame_handler")
+    dressed = sub(extension, "sample_scenes.dressed")
+    _, _, garments = dressed.posed()
+    scene = bpy.context.scene
+    scene.frame_set(2)
+    posed_2 = [evaluated(g)[0] for g in garments]
+    scene.frame_set(1)
+    posed_1 = [evaluated(g)[0] for g in garments]
+    calls, correct = [], handler.correct_frame
+
+    def counted(scene, step=1):
+        calls.append((scene.frame_current, step))
+        return correct(scene, step)
+
+    monkeypatch.setattr(handler, "correct_frame", counted)
+    scene.deformrt.playback_step = 2
+    scene.deformrt.resolve_on_frame_change = True
+    handler.on_playback_start(scene)
+    scene.frame_set(1)
+    shown_1 = [evaluated(g)[0] for g in garments]
+    assert not any(_cage_known(results, nodes, g).any() for g in garments)
+    scene.frame_set(2)
+    left_2 = [evaluated(g)[0] for g in garments]
+    assert calls == [(1, 2)]
+    handler.on_playback_stop(scene)  # stopped on a frame left to the last resolve: resolved now
+    assert calls == [(1, 2), (2, 1)] and _garment_overlaps(garments) == 0
+    assert all(_cage_known(results, nodes, g).all() for g in garments)
+    scene.frame_set(1)
+    scene.frame_set(2)
+    assert calls[-2:] == [(1, 1), (2, 1)]  # not playing: every frame
+    handler.on_playback_start(scene)
+    scene.frame_set(1)
+    handler.on_playback_stop(scene)  # stopped on a frame resolved without its cage: resolved again
+    assert calls[-2:] == [(1, 2), (1, 1)]
+    assert all(_cage_known(results, nodes, g).all() for g in garments)
+    assert max(np.abs(p2 - p1).max() for p1, p2 in zip(posed_1, posed_2, strict=True)) > 0.01  # the pose moved
+    # Subdivision is linear in the cage: the same offsets add the same to the subdivided garment
+    for left, shown, p1, p2 in zip(left_2, shown_1, posed_1, posed_2, strict=True):
+        assert np.linalg.norm(shown - p1, axis=1).max() > 1e-3  # frame 1 was corrected
+        np.testing.assert_allclose(left - p2, shown - p1, atol=1e-5)
+
+
 def test_a_bake_stopped_on_a_frame_leaves_no_partial_cache_and_the_old_one_intact(extension, tubes, tmp_path,
                                                                                 monkeypatch):
     """A resolve that fails on the third of five frames stops the bake: no file half-written at the
