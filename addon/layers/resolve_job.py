@@ -202,7 +202,8 @@ def finish_resolve(scene, job: ResolveJob, output: ResolveOutput) -> ResolveSumm
     else:  # a result of the body's own, no moves
         body = job.arrays[0]
         results.write(scene, job.body, results.Shown(np.zeros((len(body.vertices), 3)), output.skin_hidden,
-                                                     made_for=job.body_made_for, cage=_local(body)))
+                                                     made_for=job.body_made_for,
+                                                     cage=_local(body) if job.step == 1 else None))
     write_s = time.perf_counter() - t1
     st = result.stats
     garments = job.garments
