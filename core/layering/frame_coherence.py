@@ -142,15 +142,18 @@ def _cloth_acceleration(world, history: History, body: BodyNow, followed_share):
     the body turns more than a frame's turn, the last corrections are not turned with it and the
     correction must keep up with the cloth in the world (three times the given ramps' speed:
     8.6% poke-through on the relative measure alone, 0.05% blended)."""
-    if followed_share is None or history.body_vertices is None:
+    if followed_share is None or history.body_vertices is None or len(history.body_vertices) != len(body.vertices):
         return world
     binding, faces = body.binding, body.faces
 
     def point_at(v):  # each point's body point on body vertices v
         return np.einsum("ij,ijk->ik", binding.bary, rows(v, rows(faces, binding.triangle)))
 
+    before = history.body_vertices_before  # None on the first frame eased: then as the last one
+    if before is not None and len(before) != len(body.vertices):
+        return world  # the body two frames back was another mesh
     b1 = point_at(history.body_vertices)
-    b2 = point_at(history.body_vertices_before) if history.body_vertices_before is not None else b1
+    b2 = point_at(before) if before is not None else b1
     relative = world - (point_at(body.vertices) - 2.0 * b1 + b2)
     return followed_share[:, None] * relative + (1.0 - followed_share[:, None]) * world
 
@@ -168,8 +171,8 @@ def eased(vertices, posed, k, history: History, offset: float, body: BodyNow):
     same = len(history.body_normals) == len(body_normals)  # else another mesh: nothing carried over
     then = normal_at(history.body_normals) if same else None
 
-    def turned_since(d, normals, frames):
-        return followed(d, normal_at(normals), now, frames) if same else d
+    def turned_since(d, normals, frames):  # normals of another mesh than this frame's: kept as it was
+        return followed(d, normal_at(normals), now, frames) if len(normals) == len(body_normals) else d
 
     d1, x1 = (followed(history.moved[k], then, now) if same else history.moved[k]), history.posed[k]
     if history.moved_before is not None:

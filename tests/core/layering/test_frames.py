@@ -412,3 +412,22 @@ def test_the_nearest_within_a_tight_bound_is_found_for_a_point_alone():
         dist = np.linalg.norm(trimesh.triangles.closest_point(tri, np.repeat(q[None], len(tri), 0)) - q, axis=1).min()
         found = nearest_within(q[None], [dist * 1.001 + 1e-9], body.vertices, faces, vertex_faces)
         np.testing.assert_allclose(found.distance, [dist], atol=1e-9)
+
+
+def test_a_body_of_other_vertices_two_frames_back_is_not_read():
+    """The body two frames back had other vertices (a modifier switched on, say) while the garments
+    stayed: its normals and vertices are not read with this body's indices (an index past its end
+    failed the frame); the bound is then the world's, worked by hand for the patch's centre: JERK
+    offsets plus MOTION_SHARE of its centripetal acceleration 2 r (1 - cos 8 deg)."""
+    from core.layering.frame_coherence import JERK, MOTION_SHARE, BodyNow, History, eased
+
+    patch, faces = _turning_patch(8.0)
+    on = BodyCorrespondence(np.array([0] + list(range(8))), np.vstack([[1.0, 0, 0]] + [[0, 1.0, 0]] * 8), np.zeros(9))
+    tiny = np.zeros((3, 3))  # the other body: three vertices
+    first = History([np.zeros((9, 3))], [patch[0][0]], tiny, None, tiny)
+    second = History([np.zeros((9, 3))], [patch[1][0]], patch[1][1], first, patch[1][0])
+    posed, normals = patch[2]
+    out, count = eased(posed + 0.002 * normals, posed, 0, second, 0.002, BodyNow(on, normals, faces, posed))
+    assert count > 0
+    bound = JERK * 0.002 + MOTION_SHARE * 2 * 0.1 * (1 - np.cos(np.radians(8.0)))
+    np.testing.assert_allclose(out[0] - posed[0], bound * normals[0], atol=1e-12)
