@@ -95,10 +95,7 @@ def on_frame_change(scene, _depsgraph=None):
         return
     _busy = True  # reading the scene re-evaluates it; never re-enter
     try:
-        if step == 1:
-            correct_frame(scene)
-        else:
-            correct_frame(scene, step)
+        correct_frame(scene, step)
         _playback["since"], _playback["redo"] = (0, True) if step > 1 else (None, False)
     except (ValueError, RuntimeError) as exc:
         # a handler cannot report to the user: say it once in the panel and the console

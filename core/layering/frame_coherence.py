@@ -40,7 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..geometry.vectors import cross, norms, rows, unit
+from ..geometry.vectors import cross, norms
 
 HIDE_HOLD = 3
 JERK = 0.25  # offsets d per frame per frame (about 0.5 mm on a person)
@@ -145,16 +145,12 @@ def _cloth_acceleration(world, history: History, body: BodyNow, followed_share):
     if followed_share is None or history.body_vertices is None or len(history.body_vertices) != len(body.vertices):
         return world
     binding, faces = body.binding, body.faces
-
-    def point_at(v):  # each point's body point on body vertices v
-        return np.einsum("ij,ijk->ik", binding.bary, rows(v, rows(faces, binding.triangle)))
-
     before = history.body_vertices_before  # None on the first frame eased: then as the last one
     if before is not None and len(before) != len(body.vertices):
         return world  # the body two frames back was another mesh
-    b1 = point_at(history.body_vertices)
-    b2 = point_at(before) if before is not None else b1
-    relative = world - (point_at(body.vertices) - 2.0 * b1 + b2)
+    b1 = binding.points(history.body_vertices, faces)
+    b2 = binding.points(before, faces) if before is not None else b1
+    relative = world - (binding.points(body.vertices, faces) - 2.0 * b1 + b2)
     return followed_share[:, None] * relative + (1.0 - followed_share[:, None]) * world
 
 
@@ -165,7 +161,7 @@ def eased(vertices, posed, k, history: History, offset: float, body: BodyNow):
     binding, body_normals, body_faces = body.binding, body.normals, body.faces
 
     def normal_at(normals):  # the body's normal at each point's body point, in those normals
-        return unit(np.einsum("ij,ijk->ik", binding.bary, rows(normals, rows(body_faces, binding.triangle))))
+        return binding.normals(normals, body_faces)
 
     now = normal_at(body_normals)
     same = len(history.body_normals) == len(body_normals)  # else another mesh: nothing carried over

@@ -17,9 +17,9 @@ from tests.addon.layers.test_resolve_ops import evaluated, sub
 def _sending_on_the_third(monkeypatch, handler, sig):
     correct, calls = handler.correct_frame, []
 
-    def correct_then_signal(scene):
+    def correct_then_signal(scene, step=1):
         calls.append(scene.frame_current)
-        out = correct(scene)
+        out = correct(scene, step)
         if len(calls) == 3:
             os.kill(os.getpid(), sig)
         return out
@@ -120,8 +120,8 @@ _TERMINATED = textwrap.dedent("""
     print("earlier", os.path.getsize(path), flush=True)
     handler = importlib.import_module(ext + ".addon.layers.frame_handler")
     correct = handler.correct_frame
-    def terminated_on_the_second(scene):
-        out = correct(scene)
+    def terminated_on_the_second(scene, step=1):
+        out = correct(scene, step)
         if scene.frame_current == 2:
             os.kill(os.getpid(), signal.SIGTERM)
         return out

@@ -440,11 +440,11 @@ def test_a_bake_stopped_on_a_frame_leaves_no_partial_cache_and_the_old_one_intac
     earlier = path.read_bytes()
     correct, calls = handler.correct_frame, []
 
-    def failing_on_the_third(scene):
+    def failing_on_the_third(scene, step=1):
         calls.append(scene.frame_current)
         if len(calls) == 3:
             raise ValueError("a garment lost its faces")
-        return correct(scene)
+        return correct(scene, step)
 
     monkeypatch.setattr(handler, "correct_frame", failing_on_the_third)
     with pytest.raises(RuntimeError, match="Bake stopped after 2 of 5 frames, nothing written.*lost its faces"):
