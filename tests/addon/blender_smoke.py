@@ -5,14 +5,17 @@ with a Subdivision on each garment, render in Cycles and in DeformRT Layered, ba
 Alembic, add and bake a jellyfish, unregister. Prints one ``step: ok`` line per step, then ``done``;
 anything else is a failure, and so is any exit code but 0 (a crash on the way out included)."""
 
+import atexit
 import json
 import os
+import shutil
 import sys
 import tempfile
 from pathlib import Path
 
 _user = tempfile.mkdtemp(prefix="deformrt-smoke-user-")
 os.environ["BLENDER_USER_RESOURCES"] = _user
+atexit.register(shutil.rmtree, _user, ignore_errors=True)  # the installed wheels, 150-400 MB
 
 import bpy  # noqa: E402  (the user folder must be set before Blender loads)
 import numpy as np  # noqa: E402
@@ -53,6 +56,7 @@ def render(engine, path, passes_expected=None):
 def main(zip_path: str) -> int:
     print(f"blender {bpy.app.version_string} python {sys.version.split()[0]} numpy {np.__version__}", flush=True)
     out = Path(tempfile.mkdtemp(prefix="deformrt-smoke-out-"))
+    atexit.register(shutil.rmtree, out, ignore_errors=True)
     repo_dir = Path(_user) / "repo"
     repo_dir.mkdir()
     repo = bpy.context.preferences.extensions.repos.new(name="DeformRT Smoke", module=REPO,

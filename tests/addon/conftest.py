@@ -2,11 +2,13 @@
 Blender installs it (a temporary user repository, Blender's own install operator).
 
 The user resource folder points at a temporary directory before bpy loads, so the
-tests never touch the developer's Blender configuration.
+tests never touch the developer's Blender configuration; it goes when the session ends.
 """
 
+import atexit
 import os
 import platform
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -18,6 +20,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 _USER = tempfile.mkdtemp(prefix="deformrt-blender-user-")
 os.environ["BLENDER_USER_RESOURCES"] = _USER
+# the installed extension copies its bundled wheels here (about 400 MB a session): left behind,
+# a few dozen runs fill the disk
+atexit.register(shutil.rmtree, _USER, ignore_errors=True)
 
 bpy = pytest.importorskip("bpy")
 

@@ -103,13 +103,12 @@ def test_esc_abandons_the_bake_where_it_is(extension, tubes, tmp_path):
 
 
 _TERMINATED = textwrap.dedent("""
-    import os, signal, sys, tempfile
+    import os, signal, sys
     from pathlib import Path
-    os.environ["BLENDER_USER_RESOURCES"] = tempfile.mkdtemp()
     import bpy, importlib
     zip_path, out = sys.argv[1], Path(sys.argv[2])
     repo_dir = Path(os.environ["BLENDER_USER_RESOURCES"]) / "repo"
-    repo_dir.mkdir()
+    repo_dir.mkdir(parents=True)
     repo = bpy.context.preferences.extensions.repos.new(name="T", module="t", custom_directory=str(repo_dir),
                                                         source="USER")
     bpy.ops.extensions.package_install_files(repo="t", filepath=zip_path, enable_on_install=True)
@@ -139,8 +138,11 @@ def test_sigterm_ends_the_process_after_the_bake_cleaned_up(extension_zip, tmp_p
     script.write_text(_TERMINATED)
     out = tmp_path / "out"
     out.mkdir()
+    # its own Blender user folder under tmp_path, which pytest removes (the process ends by SIGTERM,
+    # so it cannot clean up after itself)
+    env = {**os.environ, "BLENDER_USER_RESOURCES": str(tmp_path / "user")}
     run = subprocess.run([sys.executable, str(script), str(extension_zip), str(out)], capture_output=True,
-                         text=True, timeout=300)
+                         text=True, timeout=300, env=env)
     assert run.returncode == -signal.SIGTERM, run.stdout + run.stderr
     assert "not stopped" not in run.stdout and "Bake stopped after 2 of 20 frames" in run.stdout + run.stderr
     earlier = int(run.stdout.split("earlier ")[1].split()[0])
