@@ -15,7 +15,7 @@ def inspect_scene(scene) -> LayersReport:
     """Crossings, poke-through and distortion of the tagged layers as fitted and as shown now."""
     body, garments = layered_objects(scene)
     objs = [body, *garments]
-    stale = staleness.check_scene(scene)
+    stale = staleness.check_scene(scene, subdivide=True)  # the shown meshes are read below anyway
     with results_bypassed(garments):
         depsgraph = bpy.context.evaluated_depsgraph_get()
         fitted = read_meshes(objs, depsgraph)

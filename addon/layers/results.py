@@ -245,10 +245,13 @@ def write(scene, obj, shown: Shown) -> None:
         obj.update_tag()
 
 
-def fits_now(obj, depsgraph) -> bool | None:
+def fits_now(obj, depsgraph, subdivide=False) -> bool | None:
     """Whether the garment's vertices are where its result was made for, as its evaluated mesh
     says (``result_nodes.FITS_ATTRIBUTE``); None when that cannot be read (no result shown, an
-    older group)."""
+    older group) or, unless ``subdivide``, not without subdividing on the CPU what the viewport
+    leaves to the GPU (checked on every edit and frame, that cost seconds a frame)."""
+    if not subdivide and result_stack.subdivided_on_demand(obj):
+        return None
     mesh = obj.evaluated_get(depsgraph).data
     attr = mesh.attributes.get(result_nodes.FITS_ATTRIBUTE) if mesh is not None else None
     if attr is None or attr.data_type != "BOOLEAN" or not len(attr.data):

@@ -198,10 +198,12 @@ def _with_results(scene) -> list:
     return [o for o in scene.objects if o.type == "MESH" and results.result_modifier(o) is not None]
 
 
-def check_scene(scene, depsgraph=None) -> list:
+def check_scene(scene, depsgraph=None, subdivide=False) -> list:
     """Look at every result of the scene as it is now: a field holding what is not the object's
     own result is emptied, a result that does not fit is switched off and one that fits again is
-    switched back on. Returns (garment, reason) of those switched off."""
+    switched back on. Returns (garment, reason) of those switched off. ``subdivide``: read the
+    result group's verdict also where that makes Blender subdivide on the CPU (results.fits_now;
+    when the user asks to look, not on every edit)."""
     if _paused:
         return stale_garments(scene)
     depsgraph = depsgraph if depsgraph is not None else bpy.context.evaluated_depsgraph_get()
@@ -214,10 +216,13 @@ def check_scene(scene, depsgraph=None) -> list:
         if obj not in tagged or results.data_object(obj) is None:
             continue
         reason = why_stale(obj, bodies[0]) if len(bodies) == 1 else "the scene has no single body"
-        if not reason and results.fits_now(obj, depsgraph) is False:
+        if not reason:
             # the fingerprints do not see it (a value inside a node group, a lattice's points, a
             # hook's target, a driver): the vertices themselves moved
-            reason = f"{obj.name}'s vertices above DeformRT moved"
+            moved = f"{obj.name}'s vertices above DeformRT moved"
+            fits = results.fits_now(obj, depsgraph, subdivide)
+            if fits is False or (fits is None and results.data_object(obj).get(results.STALE_PROPERTY) == moved):
+                reason = moved  # (not read: as it was last read)
         if reason:
             mark(obj, reason)
         else:
