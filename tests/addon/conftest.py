@@ -6,6 +6,7 @@ tests never touch the developer's Blender configuration; it goes when the sessio
 """
 
 import atexit
+import importlib
 import os
 import platform
 import shutil
@@ -81,3 +82,27 @@ def clean_scene(extension):
     """A fresh empty file for each test (preferences and the enabled extension stay)."""
     bpy.ops.wm.read_homefile(use_empty=True)
     return bpy.context.scene
+
+
+@pytest.fixture(scope="session")
+def dressed_figure(extension):
+    """``dressed_figure(name)``: the dressed figure ``name`` of sample_scenes.dressed (seed 0) in a
+    fresh file, as (body, rig, garments). Built once a session (a cloth drape, 20-60 s) and saved;
+    opened from that copy after (the builder's own determinism is tested in test_scenes)."""
+    saved = {}
+
+    def build(name):
+        if name not in saved:
+            bpy.ops.wm.read_homefile(use_empty=True)
+            body, rig, garments = getattr(importlib.import_module(f"{extension.__name__}.sample_scenes.dressed"),
+                                          name)()
+            path = Path(_USER) / f"{name}.blend"
+            bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
+            saved[name] = (path, body.name, rig.name if rig is not None else None, [g.name for g in garments])
+            return body, rig, garments
+        path, body, rig, garments = saved[name]
+        bpy.ops.wm.open_mainfile(filepath=str(path))
+        objects = bpy.data.objects
+        return objects[body], objects[rig] if rig is not None else None, [objects[g] for g in garments]
+
+    return build

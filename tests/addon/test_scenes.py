@@ -26,9 +26,8 @@ def layers(ext, body, garments):
 
 
 @pytest.fixture(scope="module", params=sorted(TARGETS))
-def seed_run(request, ext):
-    dressed = sub(ext, "sample_scenes.dressed")
-    body, rig, garments = getattr(dressed, request.param)()
+def seed_run(request, ext, dressed_figure):
+    body, rig, garments = dressed_figure(request.param)
     return request.param, body, rig, garments, layers(ext, body, garments)
 
 

@@ -71,9 +71,9 @@ def test_f12_renders_the_resolved_layers_under_the_artists_modifiers(extension, 
     assert names.index("DeformRT") == names.index("Subdivision") - 1
 
 
-def test_fig_4_13_subdivided_renders_with_no_poke_through(extension, clean_scene):
+def test_fig_4_13_subdivided_renders_with_no_poke_through(extension, dressed_figure):
     metrics = sub(extension, "core.layering.metrics")
-    sub(extension, "sample_scenes.dressed").fig_4_13(seed=0)
+    dressed_figure("fig_4_13")
     scene = bpy.context.scene
     roles = sub(extension, "addon.layers.scene_roles")
     body, garments = roles.bodies(scene)[0], roles.garments(scene)

@@ -256,12 +256,11 @@ def test_a_parts_probe_distance_can_be_set_in_the_panel(extension, tubes):
     assert json.loads(settings.last_report)["max_move"] == pytest.approx(default["max_move"])
 
 
-def test_auto_segment_on_a_resolved_scene_reads_the_body_under_its_own_result(extension, clean_scene):
+def test_auto_segment_on_a_resolved_scene_reads_the_body_under_its_own_result(extension, dressed_figure):
     """With Hide Covered Skin the body carries DeformRT's own result (faces left out): Auto-Segment
     used to refuse it as a modifier that changes the vertex count and tell the user to apply it
     (which would destroy the result). It segments as on the unresolved figure."""
-    dressed = sub(extension, "sample_scenes.dressed")
-    body, _, garments = dressed.fig_4_13()
+    body, _, garments = dressed_figure("fig_4_13")
     assert bpy.ops.deformrt.auto_segment() == {"FINISHED"}
     fresh = {o.name: {vg.name: _group_members(o, vg.name) for vg in o.vertex_groups if vg.name.startswith("DRT_")}
              for o in (body, *garments)}
@@ -316,9 +315,8 @@ def test_a_resolve_dropped_before_it_is_written_changes_nothing(extension, tubes
     assert "DeformRT Data" not in bpy.data.collections
 
 
-def test_auto_segment_writes_the_figures_parts_and_finds_the_dresses(extension, clean_scene):
-    dressed = sub(extension, "sample_scenes.dressed")
-    body, _, garments = dressed.fig_4_13()
+def test_auto_segment_writes_the_figures_parts_and_finds_the_dresses(extension, dressed_figure):
+    body, _, garments = dressed_figure("fig_4_13")
     io = sub(extension, "addon.io.mesh_io")
     stored = io.read_point_ints(body, "deformrt_part_s5")  # written by the figure's builder
     assert bpy.ops.deformrt.auto_segment() == {"FINISHED"}
