@@ -208,6 +208,9 @@ def test_a_correction_that_flips_every_frame_changes_no_faster_than_its_bound():
     for k in range(2):
         jerk, motion = _second_differences(chain, frames, k)
         assert (jerk <= JERK * offset + MOTION_SHARE * motion + 1e-9).all()
+        # the design's numbers (docs/REPORT.md): a quarter offset (0.5 mm on a person, half the 1 mm
+        # p99 issue 57 allows) and 15% of the cloth's acceleration (what ramps three times as fast need)
+        assert (jerk <= 0.25 * offset + 0.15 * motion + 1e-9).all()
     assert sum(r.stats["vertices_eased"] for r in chain) > 0
 
 
@@ -232,7 +235,31 @@ def test_a_correction_carried_by_a_fast_limb_changes_no_faster_than_jerk():
     jerk, motion = _second_differences(chain, frames, 0)
     assert motion.min() > 0.019  # the cloth accelerates 20 mm a frame in the world
     assert jerk.max() <= JERK * offset + 1e-6  # float32 rounding of the moved meshes aside
+    assert jerk.max() <= 0.25 * offset + 1e-6  # the design's quarter offset: 0.5 mm on a person
     assert jerk.max() > 0.5 * JERK * offset  # the flip is there, bounded
+    assert sum(r.stats["vertices_eased"] for r in chain) > 0
+
+
+def test_cloth_sliding_over_a_still_body_lets_its_correction_change_by_a_share_of_its_acceleration():
+    """The flipping dent on sleeves that slide along a still tube body, ever faster (4 mm a frame
+    more each frame): relative to its body points the cloth accelerates as much as in the world,
+    and the correction may depart from its trend by a quarter offset plus 15% of that (the design's
+    numbers, docs/REPORT.md), no more; the flip needs the share (it goes past the quarter offset)."""
+    def slid(meshes, t):
+        shift = np.array([0.0, 0.0, 0.5 * 0.004 * t * t])
+        return [mesh(m.vertices + shift, m.faces) for m in meshes]
+
+    body = body_tube(height=0.8)
+    frames = [slid(_dented(k % 2 == 0), k) for k in range(8)]
+    chain, last = [], None
+    for g in frames:
+        last = resolve_layers(body, g, previous=last)
+        chain.append(last)
+    offset = chain[0].stats["offset"]
+    jerk, motion = _second_differences(chain, frames, 0)
+    assert motion.min() > 0.0039
+    assert (jerk <= 0.25 * offset + 0.15 * motion + 1e-6).all()
+    assert jerk.max() > 0.25 * offset + 0.05 * motion.min()  # bounded by the share, not by JERK alone
     assert sum(r.stats["vertices_eased"] for r in chain) > 0
 
 
