@@ -160,7 +160,8 @@ def _covered_skin(a, result):
     # garment); and the skin within 1% of the body's size (2 cm on a person) of an opening stays
     gap = result.stats["gap"]
     body_faces = a.triangles[:, ::-1] if result.stats.get("body_inside_out") else a.triangles  # as the resolve took it
-    covered = covered_faces(a.vertices, body_faces, worn, 3.0 * gap, gap, 0.01 * size_of(a.vertices))
+    covered = covered_faces(a.vertices, body_faces, worn, 3.0 * gap, gap, 0.01 * size_of(a.vertices),
+                            normals=result.history.body_normals)  # the resolve's, of these faces
     hidden = np.ones(a.n_polygons, dtype=bool)  # a polygon goes when every triangle of it is covered
     np.logical_and.at(hidden, a.triangle_polygon, covered)
     hidden &= np.bincount(a.triangle_polygon, minlength=a.n_polygons) > 0

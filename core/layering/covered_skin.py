@@ -12,13 +12,14 @@ from ..geometry.vectors import cross, unit
 from ..rays.scene import RayScene
 
 
-def covered_faces(body_vertices, body_faces, garments, reach_out, reach_in, margin=0.0) -> np.ndarray:
+def covered_faces(body_vertices, body_faces, garments, reach_out, reach_in, margin=0.0, normals=None) -> np.ndarray:
     """Per body face, whether cloth lies over every point of it: along the body's normal from each
     corner and from its centre, a garment triangle (either side facing) within ``reach_out``
     outward or ``reach_in`` inward (cloth a little inside the skin). ``garments``: (vertices,
     faces) pairs. A face at a hem, under a neckline or a sleeve's opening has a point with no
     cloth over it and is kept, and so is every face within ``margin`` of one over the body's
-    surface: looking into a sleeve, the skin just inside its opening shows."""
+    surface: looking into a sleeve, the skin just inside its opening shows. ``normals``: the body's
+    vertex normals when the caller has them (the resolve found them: a frame's 3 ms)."""
     body_vertices = np.asarray(body_vertices, dtype=np.float64)
     body_faces = np.asarray(body_faces, dtype=np.int64)
     out = np.zeros(len(body_faces), dtype=bool)
@@ -37,7 +38,8 @@ def covered_faces(body_vertices, body_faces, garments, reach_out, reach_in, marg
         over[ok] = cloth.occluded(points[ok] - normals[ok] * reach_in, normals[ok], max_dist=span)
         return over
 
-    covered = clothed(body_vertices, vertex_normals(body_vertices, body_faces))[body_faces].all(axis=1)
+    normals = vertex_normals(body_vertices, body_faces) if normals is None else normals
+    covered = clothed(body_vertices, normals)[body_faces].all(axis=1)
     # a face's centre is asked only when its corners are all under cloth (else it is kept anyway)
     ask = np.flatnonzero(covered)
     a, b, c = (body_vertices[body_faces[ask, k]] for k in range(3))

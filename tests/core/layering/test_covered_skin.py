@@ -4,10 +4,11 @@ import numpy as np
 import pytest
 
 from core.geometry.normals import vertex_normals
+from core.layering import resolve_layers
 from core.layering.covered_skin import covered_faces
 from sample_scenes.shapes import tube
 from tests.core.brute import moller_trumbore
-from tests.core.layered_cases import body_tube
+from tests.core.layered_cases import body_tube, mesh
 
 
 def _brute(bv, bf, cloth, reach_out, reach_in):
@@ -31,6 +32,9 @@ def test_faces_under_a_sleeve_are_covered_and_those_past_its_hems_are_not(radius
     cloth = tube(radius, 0.21, 0.39, grid=(23, 8))
     got = covered_faces(bv, bf, [cloth], 0.03, 0.005)
     np.testing.assert_array_equal(got, _brute(bv, bf, cloth, 0.03, 0.005))
+    # with the body normals a resolve of the same body found (what Hide Covered Skin passes)
+    found = resolve_layers(body, [mesh(*cloth)]).history.body_normals
+    np.testing.assert_array_equal(covered_faces(bv, bf, [cloth], 0.03, 0.005, normals=found), got)
     centre_z = bv[bf].mean(axis=1)[:, 2]
     on_side = np.abs(np.hypot(*bv[bf].mean(axis=1)[:, :2].T) - 0.15) < 0.01
     assert got[on_side & (centre_z > 0.23) & (centre_z < 0.37)].all()
