@@ -22,8 +22,6 @@ accelerates 2.5 mm (p99). Two rules keep it as smooth as the cloth:
   motion needs); a share of 0.15 keeps them at 0.00%. JERK was 0.5 offsets until stop 66: with the
   relative acceleration, 0.25 brings the corrections' second difference p99 from 0.90-1.27 mm to
   0.47-0.75 mm on the casual suit's ramps, walks and squats (docs/REPORT.md).
-  What turning adds to the prediction (its departure from the last two corrections kept in the
-  world) is bounded by TURN_JERK offsets: the turn is followed as far as it is steady.
   The corrections are turned because a lift or push is along the cloth's global normal:
   kept fixed in world space while a limb turns, the last correction pointed ever further from
   this frame's, the bounded step toward it went sideways, and the length never came down (a
@@ -82,12 +80,6 @@ def turned(d, a, b):
 # skinning in extreme poses) flips its normals by 90-130 degrees in a frame; that is no turn of the
 # cloth, and corrections turned with it jumped 50-96 mm.
 TURN_FULL, TURN_NONE = 10.0, 20.0  # degrees a frame
-# What turning the last corrections may add to the prediction, in offsets d per frame per frame.
-# Turning steadily adds c w^2 (0.1 mm for a 30 mm correction at 3 degrees a frame); skin folding at a
-# joint turns by 8 to 16, then 6 degrees a frame, and a 30 mm correction turned with it jolted by
-# 5-6 mm (the walk's largest second differences, at the crotch). Half an offset (1 mm on a person)
-# lets a 30 mm correction turn steadily at up to 10 degrees a frame.
-TURN_JERK = 0.5
 
 
 def followed(d, a, b, frames=1):
@@ -162,14 +154,6 @@ def _cloth_acceleration(world, history: History, body: BodyNow, followed_share):
     return followed_share[:, None] * relative + (1.0 - followed_share[:, None]) * world
 
 
-def _turn_bounded(predicted, in_world, offset):
-    """The prediction turned with the body, departing from the one kept in the world (``in_world``)
-    by at most TURN_JERK offsets: what the turn adds to the correction's second difference."""
-    turn = predicted - in_world
-    size = norms(turn)
-    return in_world + turn * np.minimum(1.0, TURN_JERK * offset / np.maximum(size, 1e-30))[:, None]
-
-
 def eased(vertices, posed, k, history: History, offset: float, body: BodyNow):
     """Layer k's resolved ``vertices`` (posed at ``posed``) with the correction's change from the
     constant-velocity prediction bounded (module docstring), and how many vertices were bounded;
@@ -192,8 +176,6 @@ def eased(vertices, posed, k, history: History, offset: float, body: BodyNow):
     else:
         d2, x2 = d1, x1
     predicted = 2.0 * d1 - d2
-    if history.moved_before is not None:
-        predicted = _turn_bounded(predicted, 2.0 * history.moved[k] - history.moved_before[k], offset)
     change = vertices - posed - predicted
     size = norms(change)
     motion = _cloth_acceleration(posed - 2.0 * x1 + x2, history, body, turn_share(then, now) if same else None)
