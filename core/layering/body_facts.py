@@ -14,7 +14,7 @@ from ..geometry.normals import vertex_normals
 from ..geometry.parallel import tree_workers
 from ..geometry.topology import topology_of, vertex_adjacency
 from ..geometry.vectors import box, norms, rows
-from ..rays.scene import RayScene
+from ..rays.scene import FEW_RAYS, RayScene
 from ..rays.scene_cache import forget_scenes
 from .correspondence import closest_point_on_triangles, incident_triangles, local_radius, surface_search
 
@@ -65,7 +65,7 @@ class BodyFacts:
     def scene(self) -> RayScene:
         """The body's ray scene."""
         if self._scene is None:
-            self._scene = RayScene(self.vertices, self.faces)
+            self._scene = RayScene(self.vertices, self.faces, quality=FEW_RAYS)
         return self._scene
 
     @property

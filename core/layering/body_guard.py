@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..geometry.vectors import norms, rows
-from ..rays.scene import RayScene, step_past_hit
+from ..rays.scene import FEW_RAYS, RayScene, step_past_hit
 from .metrics import crossing_edges
 
 # Halvings of a move before it is taken back whole (1, 1/2, 1/4, then 0 of it kept)
@@ -53,7 +53,7 @@ def crossing_corners(body, cloth: Cloth, vertices, tri, edges):
     if not len(near):
         return out
     ids = None if scene is not None else tri
-    scene = scene() if scene is not None else RayScene(vertices, faces[tri])
+    scene = scene() if scene is not None else RayScene(vertices, faces[tri], quality=FEW_RAYS)
     asked = np.zeros(len(faces), dtype=bool)
     asked[tri] = True
     through = near[crossing_edges(body_vertices, None, scene, edges=pairs[near])]

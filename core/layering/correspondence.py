@@ -21,7 +21,7 @@ from ..geometry.normals import vertex_normals
 from ..geometry.parallel import map_chunks, tree_workers
 from ..geometry.topology import used_vertices
 from ..geometry.vectors import box, cross, norms, rows, unit
-from ..rays.scene import RayScene
+from ..rays.scene import FEW_RAYS, RayScene
 
 
 @dataclass
@@ -343,7 +343,7 @@ def local_radius(vertices, faces, normals=None, scene: RayScene | None = None) -
     vertices = np.asarray(vertices, dtype=np.float64)
     if normals is None:
         normals = vertex_normals(vertices, faces)
-    scene = scene if scene is not None else RayScene(vertices, faces)
+    scene = scene if scene is not None else RayScene(vertices, faces, quality=FEW_RAYS)
     size = float(np.ptp(vertices, axis=0).max()) if len(vertices) else 1.0
     ok = np.linalg.norm(normals, axis=1) > 0
     radius = np.full(len(vertices), np.nan)

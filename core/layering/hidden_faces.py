@@ -16,7 +16,7 @@ import numpy as np
 
 from ..geometry.topology import used_vertices
 from ..geometry.vectors import box, norms, rows
-from ..rays.scene import RayScene, step_past_hit
+from ..rays.scene import FEW_RAYS, RayScene, step_past_hit
 from ..rays.scene_union import SceneUnion
 
 _MAX_ROUNDS = 64
@@ -92,7 +92,7 @@ class _Layers:
     def scene(self, j):
         if j not in self._built:
             given = self._given[j] if self._given is not None else None
-            self._built[j] = given if given is not None else RayScene(self.vertices[j], self.faces[j])
+            self._built[j] = given if given is not None else RayScene(self.vertices[j], self.faces[j], quality=FEW_RAYS)
         return self._built[j]
 
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..geometry.keys import digest
 from ..geometry.vectors import box, norms, rows
-from ..rays.scene import RayScene, step_past_hit
+from ..rays.scene import FEW_RAYS, RayScene, step_past_hit
 from ..rays.scene_cache import kept_scene
 from ..rays.scene_union import SceneUnion
 from .probe_ties import grazing, on_edges
@@ -98,7 +98,7 @@ class SegmentScenes:
     def _scene(self, faces, which):
         if self.key is None:
             self.built += 1
-            return RayScene(self.vertices, faces)
+            return RayScene(self.vertices, faces, quality=FEW_RAYS)
         scene, was_kept = kept_scene((self.key, which), self.vertices, faces)
         self.kept += was_kept
         self.built += not was_kept

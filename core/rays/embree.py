@@ -66,16 +66,17 @@ def float32_dist(dist: np.ndarray) -> np.ndarray:
 class EmbreeEngine:
     """A RayScene's triangles traced by Embree: a float32 copy about ``center``, sharing its
     buffers with Embree where the library can be reached directly (moved in place, ranges of it
-    built into scenes of their own for parts to instance), else copied flat by embreex."""
+    built into scenes of their own for parts to instance, built at ``quality``), else copied flat
+    by embreex (at its medium quality)."""
 
     name = "embree"
 
-    def __init__(self, vertices, faces, center):
+    def __init__(self, vertices, faces, center, quality="medium"):
         self.center = center
         self.scene = new_scene()
         self.mesh = None
         if embree_direct.available(new_scene):
-            self.mesh = embree_direct.Triangles(self.scene, vertices - center, faces)
+            self.mesh = embree_direct.Triangles(self.scene, vertices - center, faces, quality)
         else:
             # The flat (m,3,3) constructor copies about 30% faster than the indexed one.
             TriangleMesh(self.scene, vertices[faces] - center)

@@ -30,6 +30,8 @@ _RTC_BUFFER_TYPE_VERTEX = 1
 _RTC_FORMAT_UINT3 = 0x5003
 _RTC_FORMAT_FLOAT3 = 0x9003
 _RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR = 0x9234
+# Embree's build qualities (RTCBuildQuality)
+QUALITY = {"low": 0, "medium": 1, "high": 2}
 _IDENTITY = np.array([1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0], np.float32)  # 3x4, column by column
 
 _lib = None
@@ -61,6 +63,8 @@ def _load_library():
                     "rtcAttachGeometryByID": (None, [vp, vp, u32]),
                     "rtcNewScene": (vp, [vp]),
                     "rtcSetSceneFlags": (None, [vp, ctypes.c_int]),
+                    "rtcSetSceneBuildQuality": (None, [vp, ctypes.c_int]),
+                    "rtcSetGeometryBuildQuality": (None, [vp, ctypes.c_int]),
                     "rtcCommitScene": (None, [vp]),
                     "rtcReleaseScene": (None, [vp]),
                     "rtcSetGeometryInstancedScene": (None, [vp, vp]),
@@ -88,9 +92,10 @@ def _find_scene_offset(scene) -> int | None:
 class Triangles:
     """One triangle mesh attached to an embreex EmbreeScene, sharing float32 vertex and
     uint32 index buffers with Embree. ``move(vertices)`` writes new positions in place (Embree then
-    builds the BVH again on the next ray: its REFIT quality measured no faster here)."""
+    builds the BVH again on the next ray). ``quality``: the BVH's build quality (``QUALITY``), the
+    mesh's and the scene's."""
 
-    def __init__(self, scene, vertices, faces):
+    def __init__(self, scene, vertices, faces, quality="medium"):
         device = _lib.rtcGetSceneDevice(_handle(scene))
         self._scene, self._device = scene, device
         # Embree reads vertices as 16-byte loads: one float of padding past the last vertex
@@ -105,6 +110,9 @@ class Triangles:
                                         self._vbuf.ctypes.data, 0, 12, len(self.vertices))
         _lib.rtcSetSharedGeometryBuffer(geom, _RTC_BUFFER_TYPE_INDEX, 0, _RTC_FORMAT_UINT3,
                                         self._faces.ctypes.data, 0, 12, len(self._faces))
+        self.quality = quality
+        _lib.rtcSetGeometryBuildQuality(geom, QUALITY[quality])
+        _lib.rtcSetSceneBuildQuality(_handle(scene), QUALITY[quality])
         _lib.rtcCommitGeometry(geom)
         _lib.rtcAttachGeometry(_handle(scene), geom)
         self._geom = geom  # the scene holds the reference from here on
@@ -129,6 +137,7 @@ class Group:
         if not self.handle:
             raise RuntimeError("Embree could not make a scene")
         _lib.rtcSetSceneFlags(self.handle, _RTC_SCENE_FLAG_ROBUST)
+        _lib.rtcSetSceneBuildQuality(self.handle, QUALITY[mesh.quality])
         geom = _lib.rtcNewGeometry(mesh._device, _RTC_GEOMETRY_TYPE_TRIANGLE)
         if not geom:
             raise RuntimeError("Embree could not make a triangle geometry")
@@ -136,6 +145,7 @@ class Group:
                                         mesh._vbuf.ctypes.data, 0, 12, len(mesh.vertices))
         _lib.rtcSetSharedGeometryBuffer(geom, _RTC_BUFFER_TYPE_INDEX, 0, _RTC_FORMAT_UINT3,
                                         mesh._faces.ctypes.data, 12 * start, 12, stop - start)
+        _lib.rtcSetGeometryBuildQuality(geom, QUALITY[mesh.quality])
         _lib.rtcCommitGeometry(geom)
         _lib.rtcAttachGeometryByID(self.handle, geom, geom_id)
         _lib.rtcReleaseGeometry(geom)

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.cache import Cache
-from .scene import RayScene
+from .scene import FEW_RAYS, RayScene
 
 # What the kept scenes may hold, about 256 MiB (KEPT.max_bytes)
 KEPT = Cache(max_bytes=256 << 20)
@@ -26,7 +26,7 @@ def kept_scene(key, vertices, faces) -> tuple[RayScene, bool]:
     found = KEPT.get(key)
     if found is not None:
         return found, True
-    scene = RayScene(np.array(vertices, dtype=np.float64), faces)
+    scene = RayScene(np.array(vertices, dtype=np.float64), faces, quality=FEW_RAYS)
     scene.commit()  # a kept scene may be traced from two threads: none of them commits it then
     KEPT.put(key, scene, scene_bytes(len(scene.faces), len(scene.vertices)), replace=False)
     return scene, False
