@@ -15,6 +15,7 @@ import time
 import numpy as np
 import trimesh
 
+from ..geometry.vectors import norms
 from .body_facts import body_facts
 from .body_guard import keep_out_of_body
 from .body_lift import lift_off_body
@@ -107,7 +108,7 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
     _fit_layers(stack, timings)
     _shorten_torn(stack)
     body_turn = facts.normals  # how the cloth turned since: as the body under each point did
-    n_eased = _ease(stack, garment_arrays, prep, previous, p.offset, body_turn)
+    n_eased, eased_most, eased_past_gap = _ease(stack, garment_arrays, prep, previous, p.offset, body_turn)
     t0 = time.perf_counter()
     removed = _hidden_faces(stack) if p.remove_hidden else [np.zeros(len(f), dtype=bool) for f in stack.faces]
     last = previous if p.remove_hidden else None
@@ -125,7 +126,8 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
     found = FoundOnBody(prep.traced, prep.normals, prep.corr, prep.vseg, prep.skirts,
                         prep.complete if len(prep.active) < len(garment_arrays) else None)
     result = LayeringResult(out, moved, removed, {**_stats(stack, prep, reach, removed, timings),
-                                                  "body_inside_out": flipped, "vertices_eased": n_eased}, found)
+                                                  "body_inside_out": flipped, "vertices_eased": n_eased,
+                                                  "eased_most": eased_most, "eased_past_gap": eased_past_gap}, found)
     # what the next frame carries on from (playback, frame bakes)
     result.frames_clear, result.frames_shown = clear, shown
     result.lifts = lifts
@@ -170,18 +172,21 @@ def _shorten_torn(stack) -> None:
             stack.moved_by["relaxed"] += drawn
 
 
-def _ease(stack, garment_arrays, prep, previous, offset, body_turn) -> int:
-    """No jolt from the last frames (frame_coherence.eased); how many vertices were eased."""
+def _ease(stack, garment_arrays, prep, previous, offset, body_turn) -> tuple[int, float, int]:
+    """No jolt from the last frames (frame_coherence.eased): how many vertices were eased, the
+    farthest one was left from where this frame alone put it, and how many were left farther than
+    the gap between layers (where a lower layer may show through for a frame or two)."""
     if previous is None or previous.history is None:
-        return 0
-    count = 0
+        return 0, 0.0, 0
+    count, most, past = 0, 0.0, 0
     for k in stack.active:
         smoothed, n = eased(stack.verts[k], garment_arrays[k][0], k, previous.history, offset,
                             BodyNow(prep.corr[k], body_turn, stack.body.faces, stack.body.vertices))
         if n:
-            count += n
+            left = norms(smoothed - stack.verts[k])
+            count, most, past = count + n, max(most, float(left.max())), past + int((left > stack.params.gap).sum())
             stack.moved(k, smoothed)
-    return count
+    return count, most, past
 
 
 def _same_garments(previous, garment_arrays) -> bool:

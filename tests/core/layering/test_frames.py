@@ -214,6 +214,36 @@ def test_a_correction_that_flips_every_frame_changes_no_faster_than_its_bound():
     assert sum(r.stats["vertices_eased"] for r in chain) > 0
 
 
+def test_a_frame_reports_how_far_easing_left_its_cloth_from_where_the_frame_alone_put_it(monkeypatch):
+    """The flipping dent in playback: each frame's stats say the farthest a vertex was left from
+    where that frame's own stages put it (what ``eased`` was given) and how many were left farther
+    than the gap between layers, measured here from what ``eased`` was given and gave back."""
+    import core.layering.resolve as resolve_module
+
+    seen = []
+    real = resolve_module.eased
+
+    def spy(vertices, *args):
+        out, n = real(vertices, *args)
+        seen[-1].append(np.linalg.norm((out if n else vertices) - vertices, axis=1))
+        return out, n
+
+    monkeypatch.setattr(resolve_module, "eased", spy)
+    body = body_tube()
+    last, rows = None, []
+    for k in range(8):
+        seen.append([])
+        last = resolve_layers(body, _dented(k % 2 == 0), previous=last)
+        rows.append(last.stats)
+    assert rows[0]["eased_most"] == 0.0 and rows[0]["eased_past_gap"] == 0 and not seen[0]
+    for stats, lefts in zip(rows[1:], seen[1:], strict=True):
+        left = np.concatenate(lefts)
+        assert stats["eased_most"] == left.max()
+        assert stats["eased_past_gap"] == int((left > stats["gap"]).sum())
+        assert stats["vertices_eased"] == int((left > 0).sum())
+    assert max(r["eased_most"] for r in rows) > 0.5 * rows[0]["offset"]  # the flip was eased
+
+
 def test_a_correction_carried_by_a_fast_limb_changes_no_faster_than_jerk():
     """The flipping dent of the test above on a body and sleeves that all move together, ever
     faster (20 mm a frame more each frame, a fast limb): the cloth keeps its place on the body,
