@@ -5,7 +5,7 @@ Each frame resolved on its own is right, but its discrete choices (which body po
 point takes, whether the body guard takes a push back, which edges the stretch relaxation draws
 in) flip from one frame to the next, and the correction d = resolved - posed jumps: on MakeHuman's
 ramps 25-52 mm of second difference in a frame at a few vertices, where the cloth itself
-accelerates 2.5 mm (p99). Two rules keep it as smooth as the cloth:
+accelerates 2.5 mm (p99). Three rules keep it as smooth as the cloth:
 
 - **Hidden faces held**: a face hidden because it crossed stays hidden HIDE_HOLD frames after it
   last crossed, so a face crossing every other frame does not blink; a face shown again stays
@@ -32,6 +32,18 @@ accelerates 2.5 mm (p99). Two rules keep it as smooth as the cloth:
   degrees a frame in folds: jitter max 3 -> 25 mm on the rest-to-run ramp), nor with its global
   normals (they jump where the body point goes to another part: 4 -> 41 mm), nor with the face
   normal of the body triangle under it (a skinned triangle folding at a joint flips: 10 -> 96 mm).
+- **Corrections held** (issue 57's hysteresis): a correction changes only where the frame's
+  bounded one departs from the last (turned with the body) by more than HOLD offsets, and then by
+  what goes past that band, so it never jumps; the band narrows as the cloth accelerates relative
+  to its body point (HOLD offsets over 1 + that acceleration in offsets), and the bound above
+  grows by the band, so a correction that must move moves as fast as before, one band behind.
+  Frame by frame the correction wanders by hundredths to tenths of a millimetre where nothing asks
+  it to; where it hovered about a millimetre it switched on and off. Held, vertices switching
+  within three frames 0.4-5.8 -> 0.1-0.9 a frame on the ramps, the walk and the jog; crossing
+  edges on the walk and the jog 3 -> 0 and 19 -> 4, the jog's poke-through 0.24 -> 0.05%; the
+  second difference as before. A band held without growing the bound froze corrections: the
+  bounded step (JERK offsets from the prediction) never left a band wider than it, and a
+  correction from rest never started (docs/REPORT.md, stop 68).
 """
 
 from __future__ import annotations
@@ -45,6 +57,8 @@ from ..geometry.vectors import cross, norms
 HIDE_HOLD = 3
 JERK = 0.25  # offsets d per frame per frame (about 0.5 mm on a person)
 MOTION_SHARE = 0.15
+# offsets d: how far a correction may stay from where the frame's bounded one goes (0.5 mm on a person)
+HOLD = 0.25
 
 
 class History:
@@ -179,16 +193,31 @@ def eased(vertices, posed, k, history: History, offset: float, body: BodyNow):
     change = vertices - posed - predicted
     size = norms(change)
     motion = _cloth_acceleration(posed - 2.0 * x1 + x2, history, body, turn_share(then, now) if same else None)
-    bound = JERK * offset + MOTION_SHARE * norms(motion)
+    band = HOLD * offset / (1.0 + norms(motion) / offset)
+    # the band is added to the bound: what the hold then takes back, it may first go further
+    bound = JERK * offset + MOTION_SHARE * norms(motion) + band
     over = size > bound
-    if not over.any():
-        return None, 0
-    d = predicted[over] + change[over] * (bound[over] / size[over])[:, None]
-    # a trend carried on must not overshoot: never further than this frame's own correction or the
-    # last one (the prediction runs on past a correction that has stopped growing)
-    most = np.maximum(norms(vertices[over] - posed[over]), norms(d1[over]))
-    length = norms(d)
-    d *= np.minimum(1.0, most / np.maximum(length, 1e-30))[:, None]
+    d = vertices - posed
+    if over.any():
+        bounded = predicted[over] + change[over] * (bound[over] / size[over])[:, None]
+        # a trend carried on must not overshoot: never further than this frame's own correction or the
+        # last one (the prediction runs on past a correction that has stopped growing)
+        most = np.maximum(norms(d[over]), norms(d1[over]))
+        bounded *= np.minimum(1.0, most / np.maximum(norms(bounded), 1e-30))[:, None]
+        d[over] = bounded
+    kept = _held(d, d1, band)
+    other = (kept != vertices - posed).any(axis=1)
     out = vertices.copy()
-    out[over] = posed[over] + d
-    return out, int(over.sum())
+    out[other] = posed[other] + kept[other]
+    changed = (out != vertices).any(axis=1)  # not those only rounded back onto where they were
+    return (out, int(changed.sum())) if changed.any() else (None, 0)
+
+
+def _held(d, last, band):
+    """Corrections ``d`` kept at the ``last`` ones (turned with the body) where they differ by at most
+    ``band`` per vertex, and moved by what goes past the band where they differ more (a backlash:
+    no jump as the band is left)."""
+    gap = d - last
+    size = norms(gap)
+    share = np.maximum(size - band, 0.0) / np.maximum(size, 1e-30)
+    return last + gap * share[:, None]
