@@ -197,7 +197,8 @@ def eased(vertices, posed, k, history: History, offset: float, body: BodyNow):
     # the band is added to the bound: what the hold then takes back, it may first go further
     bound = JERK * offset + MOTION_SHARE * norms(motion) + band
     over = size > bound
-    d = vertices - posed
+    own = vertices - posed
+    d = own.copy()
     if over.any():
         bounded = predicted[over] + change[over] * (bound[over] / size[over])[:, None]
         # a trend carried on must not overshoot: never further than this frame's own correction or the
@@ -206,7 +207,7 @@ def eased(vertices, posed, k, history: History, offset: float, body: BodyNow):
         bounded *= np.minimum(1.0, most / np.maximum(norms(bounded), 1e-30))[:, None]
         d[over] = bounded
     kept = _held(d, d1, band)
-    other = (kept != vertices - posed).any(axis=1)
+    other = (kept != own).any(axis=1)
     out = vertices.copy()
     out[other] = posed[other] + kept[other]
     changed = (out != vertices).any(axis=1)  # not those only rounded back onto where they were
