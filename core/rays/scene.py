@@ -15,7 +15,7 @@ import numpy as np
 from ..geometry.parallel import thread_count
 from ..geometry.topology import used_vertices
 from ..geometry.vectors import box, cross, rows
-from . import embree, numpy_backend
+from . import embree, embree_direct, numpy_backend
 from .ray_input import as_points, as_range, as_rays, occlusion_rays, step_past_hit, unit_rays
 
 __all__ = ["FEW_RAYS", "RayHits", "RayScene", "ScenePart", "step_past_hit", "thread_count", "unit_rays"]
@@ -26,7 +26,7 @@ __all__ = ["FEW_RAYS", "RayHits", "RayScene", "ScenePart", "step_past_hit", "thr
 # pays back (a playback frame: BVH builds 11 -> 4 ms, builds and traces 24 -> 19 ms). The hits are
 # the same at every quality; a scene traced for a whole image (the render engine) keeps the medium.
 FEW_RAYS = "low"
-QUALITIES = ("low", "medium", "high")
+QUALITIES = tuple(embree_direct.QUALITY)  # Embree's names, one list
 
 
 def engine_for(vertices, faces, center, quality="medium"):
