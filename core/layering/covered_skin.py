@@ -8,8 +8,8 @@ import numpy as np
 
 from ..geometry.normals import vertex_normals
 from ..geometry.topology import path_distance, topology_of
-from ..geometry.vectors import cross, unit
-from ..rays.scene import RayScene
+from ..geometry.vectors import cross, norms, unit
+from ..rays.scene import FEW_RAYS, RayScene
 
 
 def covered_faces(body_vertices, body_faces, garments, reach_out, reach_in, margin=0.0, normals=None) -> np.ndarray:
@@ -27,13 +27,14 @@ def covered_faces(body_vertices, body_faces, garments, reach_out, reach_in, marg
     if not len(body_faces) or not garments:
         return out
     offsets = np.cumsum([0] + [len(v) for v, _ in garments])
+    # built every frame in playback and traced by about one ray per body vertex: a quick build pays
     cloth = RayScene(np.vstack([v for v, _ in garments]),
-                     np.vstack([f + o for (_, f), o in zip(garments, offsets[:-1], strict=True)]))
+                     np.vstack([f + o for (_, f), o in zip(garments, offsets[:-1], strict=True)]), quality=FEW_RAYS)
     # from a little inside the skin outward: cloth inside it by up to reach_in counts too
     span = float(reach_out) + reach_in
 
     def clothed(points, normals):
-        ok = np.linalg.norm(normals, axis=1) > 0
+        ok = norms(normals) > 0
         over = np.zeros(len(points), dtype=bool)
         over[ok] = cloth.occluded(points[ok] - normals[ok] * reach_in, normals[ok], max_dist=span)
         return over
@@ -48,9 +49,10 @@ def covered_faces(body_vertices, body_faces, garments, reach_out, reach_in, marg
     if margin > 0 and not covered.all():
         topo = topology_of(body_faces, n_v)
         e = topo.edges
-        lengths = np.linalg.norm(body_vertices[e[:, 0]] - body_vertices[e[:, 1]], axis=1)[topo.adjacency_edge]
-        open_skin = np.unique(body_faces[~covered])
-        near = path_distance(topo.adjacency, lengths, open_skin, margin) <= margin
+        lengths = norms(body_vertices[e[:, 0]] - body_vertices[e[:, 1]])[topo.adjacency_edge]
+        open_skin = np.zeros(n_v, dtype=bool)  # a mask, not np.unique: no sort of every corner
+        open_skin[body_faces[~covered]] = True
+        near = path_distance(topo.adjacency, lengths, np.flatnonzero(open_skin), margin) <= margin
         covered &= ~near[body_faces].any(axis=1)
     return covered
 
