@@ -17,7 +17,13 @@ _replay = None  # while a frame bake writes its cache: (frame: writes, the bake'
 # Viewport playback (between animation_playback_pre and _post): frames since the last resolve, and
 # whether the frame shown now needs resolving when playback stops (left to the last resolve, or
 # resolved without the cage check that keeps a result off a mesh it was not made for).
-_playback = {"playing": False, "since": None, "redo": False}
+_playback = {"playing": False, "since": None, "redo": False, "last": None}
+# Playing, Blender drops the frames it has no time to show (Sync: Frame Dropping or Sync to Audio), so
+# the next frame comes 2 or more after the last: it still starts from the last resolve (its body points
+# carried and checked, its faces held, its correction eased) up to this many frames back. Started
+# afresh, a frame after a drop searched the body again (1.6x the time: more frames dropped) and showed
+# the hidden faces and corrections of a first frame. A loop's jump back to its start is farther.
+PLAYBACK_REACH = 8
 
 
 @contextmanager
@@ -95,8 +101,13 @@ def on_frame_change(scene, _depsgraph=None):
         return
     _busy = True  # reading the scene re-evaluates it; never re-enter
     try:
-        correct_frame(scene, step)
-        _playback["since"], _playback["redo"] = (0, True) if step > 1 else (None, False)
+        frame, last = scene.frame_current, _playback["last"]
+        correct_frame(scene, step, PLAYBACK_REACH if _playback["playing"] else None)
+        # the frame playback stops on is resolved again as stepping to it would (on_playback_stop) where
+        # this one was left frames to, or started from a resolve more than a frame away
+        dropped = _playback["playing"] and last is not None and abs(frame - last) > 1
+        _playback["since"], _playback["redo"] = (0, True) if step > 1 else (None, dropped)
+        _playback["last"] = frame if _playback["playing"] else None
     except (ValueError, RuntimeError) as exc:
         # a handler cannot report to the user: say it once in the panel and the console
         message = f"Resolve on frame change stopped at frame {scene.frame_current}: {exc}"
@@ -126,7 +137,7 @@ def restarting_cloth(scene, objects):
 
 @persistent
 def on_playback_start(scene, _depsgraph=None):
-    _playback.update(playing=True, since=None, redo=False)
+    _playback.update(playing=True, since=None, redo=False, last=None)
 
 
 @persistent
@@ -134,21 +145,22 @@ def on_playback_stop(scene, _depsgraph=None):
     """Playback stopped: the frame it stopped on is resolved as stepping to it would, if playback
     left it to the last resolve or resolved it without the cage check."""
     redo = _playback["redo"]
-    _playback.update(playing=False, since=None, redo=False)
+    _playback.update(playing=False, since=None, redo=False, last=None)
     if redo:
         on_frame_change(scene)
 
 
-def correct_frame(scene, step=1):
+def correct_frame(scene, step=1, reach=None):
     """The layering of the current frame (what the handler runs); returns its summary. ``step`` > 1:
-    playback resolves every ``step``-th frame (the last resolve is ``step`` frames back or nearer)."""
+    playback resolves every ``step``-th frame (the last resolve is ``step`` frames back or nearer).
+    ``reach``: how far back the last resolve may be for this frame to start from it (playback)."""
     _, garments = layered_objects(scene)
     restarting = restarting_cloth(scene, garments)
     if restarting:
         raise LayeringInputError(
             f"{', '.join(restarting)}: bake the cloth first (Physics > Cache > Bake All Dynamics) or turn this "
             "on at the simulation's first frame; adding DeformRT's result restarts an unbaked simulation")
-    return resolve_job.resolve_scene(scene, playing=True, step=step)
+    return resolve_job.resolve_scene(scene, playing=True, step=step, reach=reach)
 
 
 def register():
@@ -171,6 +183,6 @@ def unregister():
         bpy.app.handlers.animation_playback_pre.remove(on_playback_start)
     while on_playback_stop in bpy.app.handlers.animation_playback_post:
         bpy.app.handlers.animation_playback_post.remove(on_playback_stop)
-    _playback.update(playing=False, since=None, redo=False)
+    _playback.update(playing=False, since=None, redo=False, last=None)
     frame_memory.forget()
     _seen.clear()

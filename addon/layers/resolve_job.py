@@ -116,9 +116,10 @@ def _params(settings, scene_read) -> dict:
     return params
 
 
-def prepare_resolve(scene, playing=False, step=1) -> ResolveJob:
+def prepare_resolve(scene, playing=False, step=1, reach=None) -> ResolveJob:
     """Read and check the scene (main thread). ``playing`` (playback, frame bakes): a frame next to
-    the last one resolved (``step`` frames away or nearer) starts from it (frame_memory)."""
+    the last one resolved (``reach`` frames away or nearer, by default ``step``) starts from it
+    (frame_memory)."""
     settings = scene.deformrt
     t0 = time.perf_counter()
     read = read_scene(scene, settings.scheme, playing=playing)
@@ -131,7 +132,7 @@ def prepare_resolve(scene, playing=False, step=1) -> ResolveJob:
     params = _params(settings, read)
     key = frame_memory.topology_key([read.body, *read.garments], read.arrays)
     if playing:
-        params.update(frame_memory.carried(key, scene.frame_current, step))
+        params.update(frame_memory.carried(key, scene.frame_current, reach or step))
     prints = {}  # the body's read once
     made_for = [staleness.fingerprint(g, read.body, prints) for g in read.garments]
     body_made_for = staleness.fingerprint(read.body, read.body, prints)
@@ -221,15 +222,17 @@ def finish_resolve(scene, job: ResolveJob, output: ResolveOutput) -> ResolveSumm
     return summary
 
 
-def resolve_scene(scene, progress=None, playing=False, step=1) -> ResolveSummary:
+def resolve_scene(scene, progress=None, playing=False, step=1, reach=None) -> ResolveSummary:
     """Resolve the scene's tagged garments and show the result on them (non-destructively).
 
     ``playing`` (playback, frame bakes): a frame next to the last one resolved starts from it: its
     body points carried through the motion, its hidden faces held, its correction eased (core
     frame_coherence); any other frame is resolved afresh. ``step`` > 1: playback resolves every
-    step-th frame and the frames between show this result (no cage check, frame_handler)."""
+    step-th frame and the frames between show this result (no cage check, frame_handler). ``reach``:
+    how many frames back the last resolve may be for this frame to start from it (``step`` if None;
+    viewport playback may drop frames, frame_handler)."""
     tick = progress or (lambda _k: None)
-    job = prepare_resolve(scene, playing, step)
+    job = prepare_resolve(scene, playing, step, reach)
     tick(1)
     output = compute_resolve(job)
     tick(2)

@@ -396,9 +396,9 @@ def test_playback_resolving_every_second_frame_shows_the_last_correction_between
     posed_1 = [evaluated(g)[0] for g in garments]
     calls, correct = [], handler.correct_frame
 
-    def counted(scene, step=1):
+    def counted(scene, step=1, reach=None):
         calls.append((scene.frame_current, step))
-        return correct(scene, step)
+        return correct(scene, step, reach)
 
     monkeypatch.setattr(handler, "correct_frame", counted)
     scene.deformrt.playback_step = 2
@@ -426,6 +426,44 @@ def test_playback_resolving_every_second_frame_shows_the_last_correction_between
     for left, shown, p1, p2 in zip(left_2, shown_1, posed_1, posed_2, strict=True):
         assert np.linalg.norm(shown - p1, axis=1).max() > 1e-3  # frame 1 was corrected
         np.testing.assert_allclose(left - p2, shown - p1, atol=1e-5)
+
+
+def test_playback_that_drops_frames_starts_each_frame_from_the_last_resolve(extension, clean_scene, monkeypatch):
+    """Blender drops frames while playing when it falls behind (Sync: Frame Dropping): the frame after
+    a drop starts from the last resolve (core gets it as ``previous``) instead of afresh, and the frame
+    playback stops on is resolved again as stepping to it would. A loop's jump back to the start, and
+    any jump while not playing, start afresh: a frame looks the same whichever frame one came from."""
+    handler = sub(extension, "addon.layers.frame_handler")
+    resolve_job = sub(extension, "addon.layers.resolve_job")
+    dressed = sub(extension, "sample_scenes.dressed")
+    dressed.posed()
+    scene = bpy.context.scene
+    started_from, core = [], resolve_job.resolve_layers
+
+    def recorded(*args, **kwargs):
+        started_from.append((scene.frame_current, kwargs.get("previous") is not None))
+        return core(*args, **kwargs)
+
+    monkeypatch.setattr(resolve_job, "resolve_layers", recorded)
+    scene.frame_set(1)
+    scene.deformrt.resolve_on_frame_change = True
+    handler.on_playback_start(scene)
+    scene.frame_set(1)
+    scene.frame_set(3)  # frame 2 dropped
+    scene.frame_set(4)
+    assert started_from == [(1, False), (3, True), (4, True)]
+    far = 4 + handler.PLAYBACK_REACH + 1  # farther than a drop: a loop's wrap, a jump
+    scene.frame_set(far)
+    assert started_from[-1] == (far, False)
+    scene.frame_set(far + 2)
+    handler.on_playback_stop(scene)  # stopped on a frame after a drop: resolved again, afresh
+    assert started_from[-2:] == [(far + 2, True), (far + 2, False)]
+    scene.frame_set(1)
+    scene.frame_set(3)  # not playing: every frame as if jumped to
+    assert started_from[-1] == (3, False)
+    scene.frame_set(4)
+    assert started_from[-1] == (4, True)  # the next frame carries on, playing or not
+    scene.deformrt.resolve_on_frame_change = False
 
 
 def test_a_bake_stopped_on_a_frame_leaves_no_partial_cache_and_the_old_one_intact(extension, tubes, tmp_path,
