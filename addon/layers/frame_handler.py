@@ -13,6 +13,7 @@ from .scene_read import LayeringInputError, layered_objects
 
 _busy = False
 _seen = {}  # scene name: resolve_on_frame_change as last acted on
+_resolved = {}  # scene name: the frame the results shown were resolved for (with their cages)
 _replay = None  # while a frame bake writes its cache: (frame: writes, the bake's signals)
 # Viewport playback (between animation_playback_pre and _post): frames since the last resolve, and
 # whether the frame shown now needs resolving when playback stops (left to the last resolve, or
@@ -51,6 +52,7 @@ def switched(scene):
     again (a correction kept from one frame would be wrong on every other). On: the next frame
     change corrects."""
     _seen[scene.name] = scene.deformrt.resolve_on_frame_change
+    _resolved.pop(scene.name, None)
     frame_memory.forget()
     if not scene.deformrt.resolve_on_frame_change:
         resolve_job.clear_scene(scene)
@@ -79,18 +81,53 @@ def on_depsgraph_update(scene, depsgraph):
     _notice_switch(scene)
     if (scene.deformrt.resolve_on_frame_change and bpy.context.mode == "OBJECT"
             and staleness.touched(scene, depsgraph) and staleness.check_scene(scene, depsgraph)):
-        on_frame_change(scene)
+        resolve_frame(scene)
 
 
 @persistent
 def on_frame_change(scene, _depsgraph=None):
-    global _busy
     if _replay is not None:
         _write_kept(scene)
         return
     _notice_switch(scene)
-    if _busy or not scene.deformrt.resolve_on_frame_change:
+    if _busy or not scene.deformrt.resolve_on_frame_change or _shown_already(scene):
         return
+    resolve_frame(scene)
+
+
+def _shown_already(scene) -> bool:
+    """Whether this frame change needs no resolve: a render's motion blur steps (a fraction of a frame
+    before and after the frame rendered, which was resolved first) show that frame's result on their
+    poses, so the mesh keeps its faces and deforms in between; and the frame the results were
+    resolved for, seen again (a render starting and ending on it, the centre of its motion blur),
+    keeps them while they still fit. Resolved again instead, the centre started afresh (its last
+    resolve was for the same frame): the steps had other faces hidden than the centre, so Cycles
+    blurred no garment, and a render's frames lost the holds and easing of frame after frame."""
+    global _busy
+    frame = _resolved.get(scene.name)
+    objects = [o for o in scene.objects if o.type == "MESH" and results.result_modifier(o) is not None]
+    if frame is None or not objects:
+        return False
+    if scene.frame_subframe != 0.0:
+        if abs(frame - scene.frame_current - scene.frame_subframe) >= 1.0:
+            return False
+        for o in objects:
+            results.check_cage(o, False)
+        return True
+    if scene.frame_current != frame or not all([results.check_cage(o, True) for o in objects]):
+        return False
+    _busy = True  # evaluating calls the depsgraph handler: not to resolve from there
+    try:
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        return all(results.fits_now(o, depsgraph) for o in objects)
+    finally:
+        _busy = False
+
+
+def resolve_frame(scene):
+    """Resolve the frame shown now (frame after frame: from the last resolve, frame_memory)."""
+    global _busy
+    _resolved.pop(scene.name, None)
     step = scene.deformrt.playback_step if _playback["playing"] else 1
     since = _playback["since"]
     if step > 1 and since is not None and since + 1 < step:
@@ -108,6 +145,8 @@ def on_frame_change(scene, _depsgraph=None):
         dropped = _playback["playing"] and last is not None and abs(frame - last) > 1
         _playback["since"], _playback["redo"] = (0, True) if step > 1 else (None, dropped)
         _playback["last"] = frame if _playback["playing"] else None
+        if step == 1:  # written with their cages
+            _resolved[scene.name] = frame
     except (ValueError, RuntimeError) as exc:
         # a handler cannot report to the user: say it once in the panel and the console
         message = f"Resolve on frame change stopped at frame {scene.frame_current}: {exc}"
@@ -146,8 +185,8 @@ def on_playback_stop(scene, _depsgraph=None):
     left it to the last resolve or resolved it without the cage check."""
     redo = _playback["redo"]
     _playback.update(playing=False, since=None, redo=False, last=None)
-    if redo:
-        on_frame_change(scene)
+    if redo and scene.deformrt.resolve_on_frame_change and not _busy:
+        resolve_frame(scene)
 
 
 def correct_frame(scene, step=1, reach=None):
@@ -186,3 +225,4 @@ def unregister():
     _playback.update(playing=False, since=None, redo=False, last=None)
     frame_memory.forget()
     _seen.clear()
+    _resolved.clear()

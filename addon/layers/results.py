@@ -245,6 +245,22 @@ def write(scene, obj, shown: Shown) -> None:
         obj.update_tag()
 
 
+def check_cage(obj, on: bool) -> bool:
+    """Switch the check that passes a mesh moved off the result's cage through (``result_nodes``) off
+    or back on, for a result written with its cage (a motion blur step shows the frame's result on
+    the pose a fraction of a frame away). Returns whether the object has such a result."""
+    data = data_object(obj)
+    mesh = data.data if data is not None else None
+    tolerance = mesh.attributes.get(result_nodes.CAGE_TOLERANCE_ATTRIBUTE) if mesh is not None else None
+    if tolerance is None or not len(tolerance.data) or tolerance.data[0].value <= 0:  # written without its cage
+        return False
+    known = mesh.attributes.get(result_nodes.CAGE_KNOWN_ATTRIBUTE)
+    if known is not None and len(known.data) and known.data[0].value != on:
+        _set_points(mesh, result_nodes.CAGE_KNOWN_ATTRIBUTE, "BOOLEAN", np.full(len(mesh.vertices), on))
+        mesh.update()
+    return True
+
+
 def fits_now(obj, depsgraph, subdivide=False) -> bool | None:
     """Whether the garment's vertices are where its result was made for, as its evaluated mesh
     says (``result_nodes.FITS_ATTRIBUTE``); None when that cannot be read (no result shown, an

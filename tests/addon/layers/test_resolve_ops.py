@@ -466,6 +466,57 @@ def test_playback_that_drops_frames_starts_each_frame_from_the_last_resolve(exte
     scene.deformrt.resolve_on_frame_change = False
 
 
+def test_motion_blur_steps_show_the_frames_result_and_its_centre_is_not_resolved_again(extension, clean_scene,
+                                                                                        monkeypatch):
+    """A render with motion blur evaluates each frame a quarter frame before and after it (Cycles'
+    steps, where the frame change handler runs too) and at the frame again: the steps show the
+    frame's result on their poses (its offsets, the same faces hidden, so the mesh deforms between
+    them and Cycles blurs it), and the frame is not resolved again while its result still fits;
+    an edit still resolves it again."""
+    resolve_job = sub(extension, "addon.layers.resolve_job")
+    dressed = sub(extension, "sample_scenes.dressed")
+    body, _, garments = dressed.posed()
+    scene = bpy.context.scene
+    scene.frame_set(1, subframe=0.75)
+    fitted_step = [evaluated(g)[0] for g in garments]
+    scene.frame_set(2)
+    fitted = [evaluated(g)[0] for g in garments]
+    calls, core = [], resolve_job.resolve_layers
+
+    def recorded(*args, **kwargs):
+        calls.append(scene.frame_current)
+        return core(*args, **kwargs)
+
+    monkeypatch.setattr(resolve_job, "resolve_layers", recorded)
+    scene.deformrt.resolve_on_frame_change = True
+    scene.frame_set(2)
+    shown = [evaluated(g) for g in garments]
+    scene.frame_set(1, subframe=0.75)  # the step before
+    step = [evaluated(g) for g in garments]
+    assert calls == [2]
+    results = sub(extension, "addon.layers.results")
+    for (v, t), (sv, st), f, fs, g in zip(shown, step, fitted, fitted_step, garments, strict=True):
+        assert len(sv) == len(v) and len(st) == len(t)  # the frame's faces hidden: the same mesh
+        assert np.abs(fs - f).max() > 1e-3  # the pose moved between
+        offsets = results.read_offsets(g, len(f)) @ np.array(g.matrix_world)[:3, :3].T
+        assert np.linalg.norm(offsets, axis=1).max() > 1e-3  # a correction to carry
+        # the vertices kept (hidden faces drop theirs): each shown one is a fitted one moved by its offset
+        dist, kept = cKDTree(f + offsets).query(v)
+        assert dist.max() < 1e-5
+        np.testing.assert_allclose(sv, (fs + offsets)[kept], atol=1e-5)  # the frame's offsets on the step's pose
+    scene.frame_set(2)
+    assert calls == [2]
+    for (v, t), g in zip(shown, garments, strict=True):
+        again = evaluated(g)
+        np.testing.assert_array_equal(again[1], t)
+        np.testing.assert_allclose(again[0], v, atol=1e-6)
+    assert _garment_overlaps(garments) == 0
+    body.location.x += 0.01  # an edit: the results no longer fit the body
+    scene.frame_set(2)
+    assert calls[-1] == 2 and len(calls) >= 2
+    scene.deformrt.resolve_on_frame_change = False
+
+
 def test_a_bake_stopped_on_a_frame_leaves_no_partial_cache_and_the_old_one_intact(extension, tubes, tmp_path,
                                                                                 monkeypatch):
     """A resolve that fails on the third of five frames stops the bake: no file half-written at the
