@@ -105,8 +105,14 @@ def _shown_already(scene) -> bool:
     blurred no garment, and a render's frames lost the holds and easing of frame after frame."""
     global _busy
     frame = _resolved.get(scene.name)
-    objects = [o for o in scene.objects if o.type == "MESH" and results.result_modifier(o) is not None]
-    if frame is None or not objects:
+    if frame is None:
+        return False
+    try:
+        body, garments = layered_objects(scene)
+    except LayeringInputError:
+        return False  # resolving says what is wrong
+    objects = [o for o in (body, *garments) if results.result_modifier(o) is not None]
+    if not objects:
         return False
     if scene.frame_subframe != 0.0:
         if abs(frame - scene.frame_current - scene.frame_subframe) >= 1.0:
