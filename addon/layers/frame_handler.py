@@ -100,9 +100,10 @@ def _shown_already(scene) -> bool:
     before and after the frame rendered, which was resolved first) show that frame's result on their
     poses, so the mesh keeps its faces and deforms in between; and the frame the results were
     resolved for, seen again (a render starting and ending on it, the centre of its motion blur),
-    keeps them while they still fit. Resolved again instead, the centre started afresh (its last
-    resolve was for the same frame): the steps had other faces hidden than the centre, so Cycles
-    blurred no garment, and a render's frames lost the holds and easing of frame after frame."""
+    keeps them while they still fit and none was marked stale. Resolved again instead, the centre
+    started afresh (its last resolve was for the same frame): the steps had other faces hidden
+    than the centre, so Cycles blurred no garment, and a render's frames lost the holds and easing
+    of frame after frame."""
     global _busy
     frame = _resolved.get(scene.name)
     if frame is None:
@@ -121,6 +122,8 @@ def _shown_already(scene) -> bool:
             results.check_cage(o, False)
         return True
     if scene.frame_current != frame or not all([results.check_cage(o, True) for o in objects]):
+        return False
+    if staleness.stale_garments(scene):  # an edit made where the depsgraph handler leaves it (Pose Mode)
         return False
     _busy = True  # evaluating calls the depsgraph handler: not to resolve from there
     try:
