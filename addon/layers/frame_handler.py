@@ -105,8 +105,10 @@ def _shown_already(scene) -> bool:
     than the centre, so Cycles blurred no garment, and a render's frames lost the holds and easing
     of frame after frame."""
     global _busy
-    frame = _resolved.get(scene.name)
-    if frame is None:
+    frame, step = _resolved.get(scene.name), scene.frame_subframe != 0.0
+    # playback and stepping come here every frame: another frame is decided before looking at objects
+    if frame is None or (abs(frame - scene.frame_current - scene.frame_subframe) >= 1.0 if step
+                         else scene.frame_current != frame):
         return False
     try:
         body, garments = layered_objects(scene)
@@ -115,13 +117,11 @@ def _shown_already(scene) -> bool:
     objects = [o for o in (body, *garments) if results.result_modifier(o) is not None]
     if not objects:
         return False
-    if scene.frame_subframe != 0.0:
-        if abs(frame - scene.frame_current - scene.frame_subframe) >= 1.0:
-            return False
+    if step:
         for o in objects:
             results.check_cage(o, False)
         return True
-    if scene.frame_current != frame or not all([results.check_cage(o, True) for o in objects]):
+    if not all([results.check_cage(o, True) for o in objects]):
         return False
     if staleness.stale_garments(scene):  # an edit made where the depsgraph handler leaves it (Pose Mode)
         return False
