@@ -102,9 +102,12 @@ def _still(obj) -> bool:
     return True
 
 
-def _object_print(obj, mods) -> dict:
-    return {"name": obj.name, "mesh": _mesh_digest(obj.data), "keys": _keys_digest(obj.data),
-            "modifiers": _modifiers_digest(mods)}
+def _object_print(obj, mods, prints) -> dict:
+    key = (obj.name, "mesh data", None)  # three long: no (name, modifiers) key of fingerprint's
+    data = prints.get(key)
+    if data is None:  # a body's mesh read once though its result and the garments' both need it
+        data = prints[key] = (_mesh_digest(obj.data), _keys_digest(obj.data))
+    return {"name": obj.name, "mesh": data[0], "keys": data[1], "modifiers": _modifiers_digest(mods)}
 
 
 def fingerprint(garment, body, prints=None) -> str:
@@ -119,7 +122,7 @@ def fingerprint(garment, body, prints=None) -> str:
     for obj, mods in ((garment, result_stack.before_result), (body, result_stack.user_modifiers)):
         key = (obj.name, mods.__name__)
         if key not in prints:
-            prints[key] = _object_print(obj, mods(obj))
+            prints[key] = _object_print(obj, mods(obj), prints)
     return json.dumps({"garment": prints[(garment.name, "before_result")],
                        "body": prints[(body.name, "user_modifiers")], "placed": placed})
 
