@@ -25,6 +25,9 @@ _playback = {"playing": False, "since": None, "redo": False, "last": None}
 # afresh, a frame after a drop searched the body again (1.6x the time: more frames dropped) and showed
 # the hidden faces and corrections of a first frame. A loop's jump back to its start is farther.
 PLAYBACK_REACH = 8
+# Scenes whose render job runs (render_init to render_complete or render_cancel): an animation rendered
+# every n-th frame (Frame Step) starts each frame from the one rendered before it, as playback does.
+_rendering = set()
 
 
 @contextmanager
@@ -148,7 +151,8 @@ def resolve_frame(scene):
     _busy = True  # reading the scene re-evaluates it; never re-enter
     try:
         frame, last = scene.frame_current, _playback["last"]
-        correct_frame(scene, step, PLAYBACK_REACH if _playback["playing"] else None)
+        rendered_every = scene.frame_step if scene.name in _rendering and scene.frame_step > 1 else None
+        correct_frame(scene, step, PLAYBACK_REACH if _playback["playing"] else rendered_every)
         # the frame playback stops on is resolved again as stepping to it would (on_playback_stop) where
         # this one was left frames to, or started from a resolve more than a frame away
         dropped = _playback["playing"] and last is not None and abs(frame - last) > 1
@@ -198,6 +202,16 @@ def on_playback_stop(scene, _depsgraph=None):
         resolve_frame(scene)
 
 
+@persistent
+def on_render_init(scene, _depsgraph=None):
+    _rendering.add(scene.name)
+
+
+@persistent
+def on_render_end(scene, _depsgraph=None):
+    _rendering.discard(scene.name)
+
+
 def correct_frame(scene, step=1, reach=None):
     """The layering of the current frame (what the handler runs); returns its summary. ``step`` > 1:
     playback resolves every ``step``-th frame (the last resolve is ``step`` frames back or nearer).
@@ -211,6 +225,10 @@ def correct_frame(scene, step=1, reach=None):
     return resolve_job.resolve_scene(scene, playing=True, step=step, reach=reach)
 
 
+_RENDER_HANDLERS = (("render_init", on_render_init), ("render_complete", on_render_end),
+                    ("render_cancel", on_render_end))
+
+
 def register():
     if on_frame_change not in bpy.app.handlers.frame_change_post:
         bpy.app.handlers.frame_change_post.append(on_frame_change)
@@ -220,6 +238,9 @@ def register():
         bpy.app.handlers.animation_playback_pre.append(on_playback_start)
     if on_playback_stop not in bpy.app.handlers.animation_playback_post:
         bpy.app.handlers.animation_playback_post.append(on_playback_stop)
+    for name, fn in _RENDER_HANDLERS:
+        if fn not in getattr(bpy.app.handlers, name):
+            getattr(bpy.app.handlers, name).append(fn)
 
 
 def unregister():
@@ -231,6 +252,10 @@ def unregister():
         bpy.app.handlers.animation_playback_pre.remove(on_playback_start)
     while on_playback_stop in bpy.app.handlers.animation_playback_post:
         bpy.app.handlers.animation_playback_post.remove(on_playback_stop)
+    for name, fn in _RENDER_HANDLERS:
+        while fn in getattr(bpy.app.handlers, name):
+            getattr(bpy.app.handlers, name).remove(fn)
+    _rendering.clear()
     _playback.update(playing=False, since=None, redo=False, last=None)
     frame_memory.forget()
     _seen.clear()

@@ -466,6 +466,40 @@ def test_playback_that_drops_frames_starts_each_frame_from_the_last_resolve(exte
     scene.deformrt.resolve_on_frame_change = False
 
 
+def test_an_animation_rendered_every_second_frame_starts_each_frame_from_the_one_before(extension, clean_scene,
+                                                                                        monkeypatch, tmp_path):
+    """Rendering every n-th frame (Frame Step), each rendered frame starts from the one rendered
+    before it (core gets it as ``previous``), as playback does, not afresh; after the render, a
+    jump starts afresh again."""
+    resolve_job = sub(extension, "addon.layers.resolve_job")
+    dressed = sub(extension, "sample_scenes.dressed")
+    dressed.posed()
+    scene = bpy.context.scene
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    scene.collection.objects.link(camera)
+    camera.location = (0.0, -4.0, 1.0)
+    camera.rotation_euler = (1.5, 0.0, 0.0)
+    scene.camera = camera
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples = 1
+    scene.render.resolution_x = scene.render.resolution_y = 8
+    scene.render.filepath = str(tmp_path / "frame_")
+    scene.frame_start, scene.frame_end, scene.frame_step = 1, 5, 2
+    started_from, core = [], resolve_job.resolve_layers
+
+    def recorded(*args, **kwargs):
+        started_from.append((scene.frame_current, kwargs.get("previous") is not None))
+        return core(*args, **kwargs)
+
+    monkeypatch.setattr(resolve_job, "resolve_layers", recorded)
+    scene.frame_set(1)
+    scene.deformrt.resolve_on_frame_change = True
+    bpy.ops.render.render(animation=True)
+    assert [f for f in started_from if f[0] != 1] == [(3, True), (5, True)]
+    assert started_from[-1] == (1, False)  # back where it started: a jump
+    scene.deformrt.resolve_on_frame_change = False
+
+
 def test_motion_blur_steps_show_the_frames_result_and_its_centre_is_not_resolved_again(extension, clean_scene,
                                                                                         monkeypatch):
     """A render with motion blur evaluates each frame a quarter frame before and after it (Cycles'
