@@ -428,6 +428,18 @@ def test_playback_resolving_every_second_frame_shows_the_last_correction_between
         np.testing.assert_allclose(left - p2, shown - p1, atol=1e-5)
 
 
+def _record_starts(monkeypatch, resolve_job, scene) -> list:
+    """Each resolve from now on as (frame, whether core got the last frame's result as ``previous``)."""
+    started_from, core = [], resolve_job.resolve_layers
+
+    def recorded(*args, **kwargs):
+        started_from.append((scene.frame_current, kwargs.get("previous") is not None))
+        return core(*args, **kwargs)
+
+    monkeypatch.setattr(resolve_job, "resolve_layers", recorded)
+    return started_from
+
+
 def test_playback_that_drops_frames_starts_each_frame_from_the_last_resolve(extension, clean_scene, monkeypatch):
     """Blender drops frames while playing when it falls behind (Sync: Frame Dropping): the frame after
     a drop starts from the last resolve (core gets it as ``previous``) instead of afresh, and the frame
@@ -438,13 +450,7 @@ def test_playback_that_drops_frames_starts_each_frame_from_the_last_resolve(exte
     dressed = sub(extension, "sample_scenes.dressed")
     dressed.posed()
     scene = bpy.context.scene
-    started_from, core = [], resolve_job.resolve_layers
-
-    def recorded(*args, **kwargs):
-        started_from.append((scene.frame_current, kwargs.get("previous") is not None))
-        return core(*args, **kwargs)
-
-    monkeypatch.setattr(resolve_job, "resolve_layers", recorded)
+    started_from = _record_starts(monkeypatch, resolve_job, scene)
     scene.frame_set(1)
     scene.deformrt.resolve_on_frame_change = True
     handler.on_playback_start(scene)
@@ -485,13 +491,7 @@ def test_an_animation_rendered_every_second_frame_starts_each_frame_from_the_one
     scene.render.resolution_x = scene.render.resolution_y = 8
     scene.render.filepath = str(tmp_path / "frame_")
     scene.frame_start, scene.frame_end, scene.frame_step = 1, 5, 2
-    started_from, core = [], resolve_job.resolve_layers
-
-    def recorded(*args, **kwargs):
-        started_from.append((scene.frame_current, kwargs.get("previous") is not None))
-        return core(*args, **kwargs)
-
-    monkeypatch.setattr(resolve_job, "resolve_layers", recorded)
+    started_from = _record_starts(monkeypatch, resolve_job, scene)
     scene.frame_set(1)
     scene.deformrt.resolve_on_frame_change = True
     bpy.ops.render.render(animation=True)
