@@ -497,6 +497,8 @@ def test_an_animation_rendered_every_second_frame_starts_each_frame_from_the_one
     bpy.ops.render.render(animation=True)
     assert [f for f in started_from if f[0] != 1] == [(3, True), (5, True)]
     assert started_from[-1] == (1, False)  # back where it started: a jump
+    scene.frame_set(3)  # the render over, two frames on is a jump again
+    assert started_from[-1] == (3, False)
     scene.deformrt.resolve_on_frame_change = False
 
 
@@ -545,6 +547,17 @@ def test_motion_blur_steps_show_the_frames_result_and_its_centre_is_not_resolved
         np.testing.assert_array_equal(again[1], t)
         np.testing.assert_allclose(again[0], v, atol=1e-6)
     assert _garment_overlaps(garments) == 0
+    # kept, the frame's results check their cages again: a mesh moved off one no longer counts as fitted
+    handler = sub(extension, "addon.layers.frame_handler")
+    with monkeypatch.context() as nothing_resolves:
+        nothing_resolves.setattr(handler, "resolve_frame", lambda _scene: None)
+        vertex = garments[0].data.vertices[0]
+        kept = vertex.co.copy()
+        vertex.co.x += 0.05
+        garments[0].data.update()
+        assert results.fits_now(garments[0], bpy.context.evaluated_depsgraph_get()) is False
+        vertex.co = kept
+        garments[0].data.update()
     staleness = sub(extension, "addon.layers.staleness")
     staleness.mark(garments[0], "an edit made in Pose Mode")  # marked, not resolved by the edit's handler
     scene.frame_set(2)
@@ -552,6 +565,8 @@ def test_motion_blur_steps_show_the_frames_result_and_its_centre_is_not_resolved
     body.location.x += 0.01  # an edit: the results no longer fit the body
     scene.frame_set(2)
     assert calls[-1] == 2 and len(calls) >= 3
+    scene.frame_set(3, subframe=0.25)  # more than a frame from the frame resolved: not one of its steps
+    assert calls[-1] == 3
     scene.deformrt.resolve_on_frame_change = False
 
 
