@@ -71,7 +71,9 @@ class DEFORMRT_OT_optimize_jellyfish(_NeedsJellyfish, BackgroundOperator, bpy.ty
     population: bpy.props.IntProperty(name="Population", default=10, min=2, max=200, step=2)
     generations: bpy.props.IntProperty(name="Generations", default=30, min=1, max=1000)
     particles: bpy.props.IntProperty(name="Resolution", description="Fluid particles per side (an odd count "
-                                     "is rounded up)", default=100, min=20, max=400)
+                                     "is rounded up). 100 is quick, not converged: its path is about 1.5 "
+                                     "times that of 280, which is within about 5% of converged and "
+                                     "about 50 times slower", default=100, min=20, max=400)
     water: bpy.props.EnumProperty(name="Water", items=WATERS, default="axisymmetric")
     viscosity: bpy.props.FloatProperty(
         name="Water Viscosity", default=default_config().viscosity, min=jellyfish.VISCOSITY[0],
