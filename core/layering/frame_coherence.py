@@ -44,6 +44,14 @@ accelerates 2.5 mm (p99). Three rules keep it as smooth as the cloth:
   second difference as before. A band held without growing the bound froze corrections: the
   bounded step (JERK offsets from the prediction) never left a band wider than it, and a
   correction from rest never started (docs/REPORT.md, stop 68).
+- **The correction's acceleration capped in the world**: whatever the rules above let through, a
+  correction's second difference in the world (what a viewer sees jolt) is at most ACCEL_CAP
+  offsets. The turn followed is the body's turn under the point, and skin folding in a crease (the
+  crotch on a walk) turns up to 10-20 degrees a frame and back: a 20-30 mm lift turned with it
+  jolted 6-11 mm in the world on a walk and a jog, and 19 mm on the gym ramp played three times as
+  fast. Capped at 2 offsets (about 4 mm on a person): 4.2 / 4.3 / 4.3 mm; the jog's poke-through
+  0.05 -> 0.13% and its crossing edges 4 -> 7 (a lift a frame or two late), the walk's and the
+  harder poses' unchanged (docs/REPORT.md, stop 70).
 """
 
 from __future__ import annotations
@@ -59,6 +67,8 @@ JERK = 0.25  # offsets d per frame per frame (about 0.5 mm on a person)
 MOTION_SHARE = 0.15
 # offsets d: how far a correction may stay from where the frame's bounded one goes (0.5 mm on a person)
 HOLD = 0.25
+# offsets d per frame per frame, in the world (issue 57 allows 5 mm on any frame; an offset is about 2 mm)
+ACCEL_CAP = 2.0
 
 
 class History:
@@ -207,11 +217,26 @@ def eased(vertices, posed, k, history: History, offset: float, body: BodyNow):
         bounded *= np.minimum(1.0, most / np.maximum(norms(bounded), 1e-30))[:, None]
         d[over] = bounded
     kept = _held(d, d1, band)
+    if history.moved_before is not None:
+        kept = _capped(kept, 2.0 * history.moved[k] - history.moved_before[k], ACCEL_CAP * offset)
     other = (kept != own).any(axis=1)
     out = vertices.copy()
     out[other] = posed[other] + kept[other]
     changed = (out != vertices).any(axis=1)  # not those only rounded back onto where they were
     return (out, int(changed.sum())) if changed.any() else (None, 0)
+
+
+def _capped(d, trend, most):
+    """Corrections ``d`` no farther than ``most`` from the world's constant-velocity ``trend`` (not
+    turned with the body: the second difference a viewer sees)."""
+    gap = d - trend
+    size = norms(gap)
+    far = size > most
+    if not far.any():
+        return d
+    out = d.copy()
+    out[far] = trend[far] + gap[far] * (most / size[far])[:, None]
+    return out
 
 
 def _held(d, last, band):
