@@ -105,6 +105,9 @@ def _params(settings, scene_read) -> dict:
     shells = [result_stack.outward_shell(g) for g in scene_read.garments]
     if any(shells):
         params["outward_shells"] = shells
+    solved = [result_stack.simulated(g) for g in scene_read.garments]
+    if any(solved):
+        params["simulated"] = solved
     if settings.scheme == "NONE":
         params["segment_links"] = True  # the body's separate pieces are still one body
     if scene_read.parts is not None:

@@ -136,6 +136,11 @@ def moving_after(obj) -> list:
     return [m.name for m in after_cut(obj) if m.type in MOVING and (m.show_viewport or m.show_render)]
 
 
+def simulated(obj) -> bool:
+    """Whether a cloth or soft body solver moves the garment (shown in the viewport or the render)."""
+    return any(m.type in {"CLOTH", "SOFT_BODY"} and (m.show_viewport or m.show_render) for m in obj.modifiers)
+
+
 def outward_shell(obj) -> float:
     """How far, in world units, Solidify modifiers after the result grow the corrected garment
     outward (offset 1 grows it all outward, -1, the default, all inward): the resolve leaves

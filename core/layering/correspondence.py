@@ -287,13 +287,15 @@ def nearest_on_surface(points, vertices, faces, search: SurfaceSearch | None = N
     return BodyCorrespondence(best_t, best_w, best_d)
 
 
-def nearest_within(points, bound, vertices, faces, vertex_faces, longest=None) -> BodyCorrespondence:
+def nearest_within(points, bound, vertices, faces, vertex_faces, longest=None, budget=None
+                   ) -> BodyCorrespondence | None:
     """The exact nearest surface point of each of a few points whose nearest lies within
     ``bound`` (per point) of it: a body point carried from an earlier frame bounds it. Only the
     triangles with a corner within the bound plus the longest edge can hold it (every point of
     a triangle is within its longest edge of each corner), so no search structure is built.
     ``vertex_faces``: MeshTopology.vertex_faces of ``faces``; ``longest``: the longest edge, when
-    the caller knows it."""
+    the caller knows it. ``budget``: the most point-corner pairs worth testing so; None is
+    returned where the bounds take in more (a search structure is then cheaper)."""
     points, vertices = np.asarray(points, dtype=np.float64), np.asarray(vertices, dtype=np.float64)
     n = len(points)
     if not n or not len(faces):
@@ -311,6 +313,8 @@ def nearest_within(points, bound, vertices, faces, vertex_faces, longest=None) -
     some = vertices[near]
     d2 = (points * points).sum(1)[:, None] - 2 * points @ some.T + (some * some).sum(1)[None]
     pi, vi = np.nonzero(d2 <= reach[:, None] + 1e-12 * longest * longest)
+    if budget is not None and len(pi) > budget:
+        return None
     vi = near[vi]
     start, tris = vertex_faces
     counts = start[vi + 1] - start[vi]

@@ -13,7 +13,7 @@ from .segmentation import Scheme, get_scheme
 
 KNOWN = frozenset({"offset", "probe_distance", "garment_segments", "global_normals", "boundary_pass", "push_behind",
                    "body_guard", "remove_hidden", "falloff", "scheme", "segment_links", "correspondence",
-                   "segment_margin", "outward_shells"})
+                   "segment_margin", "outward_shells", "simulated"})
 
 
 MAX_OFFSET = 0.05  # of the body's size
@@ -107,6 +107,7 @@ class LayeringParameters:
     body_guard: bool
     remove_hidden: bool
     falloff: float | None
+    simulated: list  # per garment: its cloth is simulated (frame_coherence.held_hidden)
 
     @classmethod
     def parse(cls, body, body_vertices, body_faces, garment_arrays, body_segments, params) -> LayeringParameters:
@@ -133,7 +134,8 @@ class LayeringParameters:
                    correspondence=g_corr, boundary_pass=bool(params.get("boundary_pass", True)),
                    push_behind=bool(params.get("push_behind", True)), body_guard=bool(params.get("body_guard", True)),
                    remove_hidden=bool(params.get("remove_hidden", True)),
-                   falloff=None if falloff is None else float(falloff))
+                   falloff=None if falloff is None else float(falloff),
+                   simulated=[bool(s) for s in _per_garment(params.get("simulated"), n_g, "simulated")])
 
 
 def _body_parts(body, body_vertices, body_segments):

@@ -82,6 +82,9 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
             no room: it lies behind its own garment's surface, which hides what it crosses
             (measured on Fig 4.13 with 1 cm Solidify after Subdivision: making room for inward
             shells too pushes the layers against the body and doubles poke-through).
+        simulated: per garment, whether its cloth is simulated (a cloth solver's, whose
+            contacts come and go from frame to frame) rather than skinned: frame after frame its
+            crossing faces are hidden every frame they cross (frame_coherence.held_hidden).
     """
     t_start = time.perf_counter()
     timings = {}
@@ -113,7 +116,7 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
     removed = _hidden_faces(stack) if p.remove_hidden else [np.zeros(len(f), dtype=bool) for f in stack.faces]
     last = previous if p.remove_hidden else None
     removed, clear, shown = held_hidden(removed, last and last.removed_faces, last and last.frames_clear,
-                                        last and last.frames_shown)
+                                        last and last.frames_shown, p.simulated)
     timings["hidden_faces_s"] = time.perf_counter() - t0
 
     out, moved = [], []

@@ -140,6 +140,51 @@ def test_the_nearest_within_a_bound_is_the_nearest_point_of_the_surface(kind):
     np.testing.assert_allclose(np.linalg.norm(p - on, axis=1), dist, atol=1e-9)
 
 
+def test_cloth_falling_far_above_the_body_is_bound_again_exactly_by_the_search_structure(monkeypatch):
+    """Points 25-45 cm over the legs (cloth falling onto a stage, blown sideways), carried from body
+    points they have drifted 40 cm away from: their bounds take in every body vertex, more than
+    WITHIN_PAIRS pairs, so the bounded search declines (None) and the search structure binds them,
+    exactly (against trimesh's closest points); near the body the bounded search still answers."""
+    import core.layering.garment_prep as garment_prep
+    from core.geometry.topology import topology_of
+    from core.layering.correspondence import nearest_within
+
+    body, _ = lower_body()
+    faces = np.asarray(body.faces, dtype=np.int64)
+    facts = body_facts(np.asarray(body.vertices, float), faces)
+    rng = np.random.default_rng(5)
+    top = body.bounds[1][2]
+    p = np.column_stack([rng.uniform(-0.15, 0.15, 120), rng.uniform(-0.1, 0.1, 120),
+                         top + rng.uniform(0.25, 0.45, 120)])
+    closest, dist, tri = trimesh.proximity.closest_point(body, p)
+    bary = trimesh.triangles.points_to_barycentric(body.triangles[tri], closest)
+    was = BodyCorrespondence(tri.astype(np.int64), bary, dist)
+    q = p + [0.4, 0.0, -0.05]
+    vertex_faces = topology_of(faces, len(body.vertices)).vertex_faces
+    bound = np.linalg.norm(q - closest, axis=1)  # the carried body points' distance now
+    assert nearest_within(q, bound, body.vertices, faces, vertex_faces, budget=garment_prep.WITHIN_PAIRS) is None
+    asked = []
+    real = garment_prep.nearest_on_surface
+    monkeypatch.setattr(garment_prep, "nearest_on_surface",
+                        lambda pts, *a, **k: asked.append(len(pts)) or real(pts, *a, **k))
+    c = garment_prep.carried(was, q, facts, gap=0.002)
+    _, near, _ = trimesh.proximity.closest_point(body, q)
+    assert asked and sum(asked) <= len(q)
+    moved = c.distance < bound - 1e-9
+    assert moved.any()
+    np.testing.assert_allclose(c.distance[moved], near[moved], atol=1e-6)
+    # on a finely meshed body (1 cm edges, as a figure's skin), points a centimetre off it: the
+    # bounded search answers by itself, exactly
+    ball = trimesh.creation.icosphere(subdivisions=4, radius=0.1)
+    ball_faces = np.asarray(ball.faces, dtype=np.int64)
+    close = ball.sample(40, seed=2) * 1.1
+    _, d_close, _ = trimesh.proximity.closest_point(ball, close)
+    found = nearest_within(close, d_close * 1.5, ball.vertices, ball_faces,
+                           topology_of(ball_faces, len(ball.vertices)).vertex_faces, budget=garment_prep.WITHIN_PAIRS)
+    assert found is not None
+    np.testing.assert_allclose(found.distance, d_close, atol=1e-9)
+
+
 def test_cloth_that_slid_beside_its_body_point_is_bound_again_before_it_reads_as_inside():
     """Cloth 10 mm over a flat body slides 8 mm along it and sinks to 6 mm: as far from its old body
     point as before, but beside it; ever further along, "behind the point's normal" would read as
@@ -405,6 +450,33 @@ def test_no_face_is_hidden_or_shown_for_a_single_frame():
             assert out[t][face] == hide, (face, t)
             shown_run = 0 if hide else (min(shown_run + 1, 2) if t else 2)  # shown from the start: not "just"
             hidden_before = hide
+
+
+def test_a_simulated_garments_crossing_faces_are_hidden_every_frame_they_cross():
+    """The random crossings above on two garments at once, one skinned and one simulated (a cloth
+    solver's): the skinned one's faces never change state for one frame only, the simulated one's
+    are hidden on every frame they cross (against the rule written out: hidden when it crossed
+    within HIDE_HOLD frames, no exception), while the skinned one still shows some crossing faces
+    for a frame (the rule that keeps it free of one-frame states)."""
+    from core.layering.frame_coherence import held_hidden
+
+    rng = np.random.default_rng(7)
+    crossing = rng.random((60, 400)) < rng.uniform(0.02, 0.5, 400)
+    out, state = [], (None, None, None)
+    for now in crossing:
+        state = held_hidden([now, now], *state, simulated=[False, True])
+        out.append(state[0])
+    skinned, solved = np.array([o[0] for o in out]), np.array([o[1] for o in out])
+    assert _runs_of_one(skinned) == 0
+    assert (skinned < crossing).any()  # shown while crossing: the skinned garment's trade
+    assert not (solved < crossing).any()
+    for face in range(400):
+        last_cross = -10
+        for t in range(60):
+            if crossing[t, face]:
+                last_cross = t
+            hide = t - last_cross <= HIDE_HOLD and (crossing[t, face] or bool(solved[t - 1, face] if t else False))
+            assert solved[t, face] == hide, (face, t)
 
 
 def test_a_vector_is_turned_by_the_least_rotation_between_two_normals():
