@@ -73,11 +73,13 @@ def crossing_corners(body, cloth: Cloth, vertices, tri, edges):
     return out
 
 
-def back_off(body, cloth: Cloth, before, after, clearance):
+def back_off(body, cloth: Cloth, before, after, clearance, through_before=False):
     """``after`` (a layer's vertices once moved, ``before`` as they came) with the moves that put
     cloth through the body taken back, halving them first. ``clearance``: a lower bound on each
     vertex's distance from the body at ``after`` (inf inside it). The cloth's scene (over it at
-    ``after``) is asked only if a triangle needs it.
+    ``after``) is asked only if a triangle needs it. ``through_before``: corners that passed
+    through the body at ``before`` already keep their moves (a move that only fails to take cloth
+    out of the body is not undone).
     Returns (vertices, how many went back).
 
     Only what a move touched and what is near enough to the body is asked: an edge meeting
@@ -97,6 +99,8 @@ def back_off(body, cloth: Cloth, before, after, clearance):
                          & near[faces[:, 0]] & near[faces[:, 1]] & near[faces[:, 2]])
     if not len(tri) and not len(e):
         return after, 0
+    if through_before:
+        moved &= ~crossing_corners(body, Cloth(faces, edges), before, tri, e)
     out = after.copy()
     keep = np.ones(len(out))
     went_back = np.zeros(len(out), dtype=bool)

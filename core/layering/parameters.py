@@ -107,7 +107,7 @@ class LayeringParameters:
     body_guard: bool
     remove_hidden: bool
     falloff: float | None
-    simulated: list  # per garment: its cloth is simulated (frame_coherence.held_hidden)
+    simulated: list  # per garment: its cloth is simulated (resolve._guarded, frame_coherence.held_hidden)
 
     @classmethod
     def parse(cls, body, body_vertices, body_faces, garment_arrays, body_segments, params) -> LayeringParameters:

@@ -764,3 +764,32 @@ def test_a_higher_layer_near_the_end_of_the_probe_is_still_found():
     over = (np.abs(low.vertices[:, :2]) < 0.09).all(1)  # under the patch, away from its edge
     np.testing.assert_allclose(res.garments[0].vertices[over, 2], high.vertices[0, 2] - res.stats["gap"], atol=1e-6)
     assert np.allclose(res.moved[0][~(np.abs(low.vertices[:, :2]) < 0.11).all(1)], 0.0)
+
+
+def test_the_body_guard_takes_back_a_move_into_the_body_and_keeps_one_that_only_fails_to_take_cloth_out():
+    """A coarse sheet over a box: its middle vertex moved 30 cm down goes into the box, and the
+    move is halved until no edge or triangle passes through it (brute force: none does); with the
+    vertex inside the box already, a move that leaves it inside is kept when ``through_before`` says
+    that cloth through the body before may stay so (the lift's and easing's guard on simulated
+    cloth), and taken back otherwise (the guard on the stages' moves)."""
+    from core.layering.body_facts import body_facts
+    from core.layering.body_guard import Cloth, back_off
+
+    box = trimesh.creation.box(extents=(0.4, 0.4, 0.4))
+    body = body_facts(np.asarray(box.vertices, float), np.asarray(box.faces))
+    v, f = sheet(size=1.0, n=5, z=0.3)
+    edges = unique_edges(f)
+    middle = int(np.argmin(np.linalg.norm(v[:, :2], axis=1)))
+    cloth = Cloth(f, edges)
+    down = v.copy()
+    down[middle, 2] = 0.0
+    assert brute_crossings(down, f, box.vertices, box.faces) > 0
+    out, n = back_off(body, cloth, v, down, np.zeros(len(v)), through_before=True)
+    assert n == 1 and brute_crossings(out, f, box.vertices, box.faces) == 0
+    assert v[middle, 2] > out[middle, 2] > 0.2  # part of the move kept: above the box's top
+    up = down.copy()
+    up[middle, 2] = 0.05  # still inside the box
+    kept, n_kept = back_off(body, cloth, down, up, np.zeros(len(v)), through_before=True)
+    assert n_kept == 0 and np.array_equal(kept, up)
+    taken, n_taken = back_off(body, cloth, down, up, np.zeros(len(v)))
+    assert n_taken == 1 and taken[middle, 2] < up[middle, 2]
