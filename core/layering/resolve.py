@@ -161,9 +161,9 @@ def _lift(stack, prep, previous, timings) -> list:
     lifts = [None] * len(stack.verts)
     held = (previous.lifts if previous is not None else None) or [None] * len(stack.verts)
     for k in stack.active:
-        came, clear = stack.verts[k], stack.clearance[k].copy()
+        came, clear = stack.verts[k], stack.clearance[k].copy() if _guarded(stack, k) else None
         lifts[k] = lift_off_body(stack, k, prep.corr[k].distance, held[k])
-        if _guarded(stack, k) and stack.verts[k] is not came:
+        if clear is not None and stack.verts[k] is not came:
             _guard_lift(stack, k, came, clear)
         _relax(stack, k)
         stack.rest[k] = stack.verts[k]  # what the body guard takes moves back to: the stages' moves, not the lift
