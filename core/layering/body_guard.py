@@ -118,6 +118,16 @@ def back_off(body, cloth: Cloth, before, after, clearance, through_before=False)
     return out, int(went_back.sum())
 
 
+def keep_clear_cloth_clear(stack, k, before, after, clearance):
+    """Layer k of a LayerStack moved from ``before`` to ``after`` (the lift, easing), with the moves
+    that put cloth through the body where it was clear taken back (``back_off`` keeping the moves of
+    corners already through it). Returns (vertices, how many went back), counted on the stack."""
+    out, n_back = back_off(stack.body, Cloth(stack.faces[k], stack.edges[k]), before, after, clearance,
+                           through_before=True)
+    stack.backed_off += n_back
+    return out, n_back
+
+
 def keep_out_of_body(stack, k) -> None:
     """The body guard on layer k of a LayerStack: where its moves put cloth through the body, they
     are taken back (before the layers under it are fitted to it). A correspondence passed in

@@ -17,7 +17,7 @@ import trimesh
 
 from ..geometry.vectors import norms
 from .body_facts import body_facts
-from .body_guard import Cloth, back_off, keep_out_of_body
+from .body_guard import keep_clear_cloth_clear, keep_out_of_body
 from .body_lift import lift_off_body
 from .boundary_pass import tuck_under_hems
 from .frame_coherence import BodyNow, History, eased, held_hidden
@@ -189,13 +189,11 @@ def _guard_lift(stack, k, came, clear) -> None:
     lifted = stack.verts[k]
     # the clearances the lift wrote assume a move along the normal goes straight away from the body,
     # which is what fails here: every moved edge and triangle is asked
-    kept_out, n_back = back_off(stack.body, Cloth(stack.faces[k], stack.edges[k]), came, lifted,
-                                np.zeros(len(lifted)), through_before=True)
+    kept_out, n_back = keep_clear_cloth_clear(stack, k, came, lifted, np.zeros(len(lifted)))
     if n_back:
         back = (kept_out != lifted).any(axis=1)
         stack.clearance[k][back] = clear[back]  # a lower bound where it came from holds part of the way back
         stack.moved(k, kept_out)
-        stack.backed_off += n_back
 
 
 def _shorten_torn(stack) -> None:
@@ -234,10 +232,7 @@ def _guard_ease(stack, k, own, smoothed):
     landing on a collider) would push it in. A vertex eased by m from ``own`` is at least its
     clearance less m from the body: only edges and triangles that can reach it are asked."""
     clearance = np.maximum(stack.clearance[k] - norms(smoothed - own), 0.0)
-    out, n_back = back_off(stack.body, Cloth(stack.faces[k], stack.edges[k]), own, smoothed, clearance,
-                           through_before=True)
-    stack.backed_off += n_back
-    return out
+    return keep_clear_cloth_clear(stack, k, own, smoothed, clearance)[0]
 
 
 def _same_garments(previous, garment_arrays) -> bool:
