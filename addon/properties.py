@@ -81,6 +81,14 @@ class DeformRTSceneProperties(bpy.types.PropertyGroup):
         min=1,
         max=4,
     )
+    playback_in_background: BoolProperty(
+        name="While Playing, Resolve in the Background",
+        description="While the animation plays in the viewport, resolve on a worker thread: each frame shows the "
+        "newest finished correction on its own pose (a frame or two old), and playback keeps its speed. "
+        "Renders, Bake Frames, scripts and stepping resolve every frame, and so does the frame playback "
+        "stops on",
+        default=True,
+    )
     scheme: EnumProperty(
         name="Body Parts",
         description="How the body is split into parts: cloth over one part is only fitted under garments over "

@@ -9,6 +9,7 @@ frame-to-frame coherence: one-frame blinks of hidden faces, the correction's sec
 
     .venv/bin/python -m bench.animation      # writes the section of docs/REPORT.md (~3 min)
     .venv/bin/python -m bench.animation beyond   # the motions past the ramps (sample_scenes.motions, ~5 min)
+    .venv/bin/python -m bench.animation late     # a correction shown 0-3 frames late (~3 min)
 """
 
 import sys
@@ -146,5 +147,36 @@ def beyond():
                   "resolve's stats eased_most and eased_past_gap).\n\n" + body)
 
 
+LATE = (0, 1, 2, 3)
+
+
+def late():
+    """A correction shown frames late, as playback with the resolve in the background shows it: frame
+    m's offsets and hidden faces on frame m + k's pose (every second frame m)."""
+    rig = Rig()
+    rows = []
+    for name, frames in {**rig.animations, **motions(Skeleton(rig))}.items():
+        if name not in ("ramp_run01", "ramp_gym01", "walk", "jog"):
+            continue
+        played = play(rig, frames, "default")
+        cams = metrics.camera_ring(*metrics.layer_bounds(played[0][2]), views=8, resolution=96)
+        for k in LATE:
+            pokes, cross = [], []
+            for m in range(2, len(played) - k, 2):
+                result, posed = played[m][0], played[m + k][3]
+                layers = [(rig.frame(frames[m + k])[0], rig.body.faces)] + [
+                    (v + d, g.faces[~h]) for v, d, g, h in zip(posed, result.moved, rig.garments,
+                                                                result.removed_faces, strict=True)]
+                pokes.append(metrics.poke_through(layers, cameras=cams)[0] * 100)
+                cross.append(int(np.triu(metrics.layer_crossings(layers[1:])).sum()))
+            rows.append([name, str(k), f"{np.mean(pokes):.3f} / {max(pokes):.3f}",
+                         f"{np.mean(cross):.1f} / {max(cross)}"])
+            print(" | ".join(rows[-1]), flush=True)
+    body = table(["motion", "frames late", "poke-through % (mean / worst)", "crossing edges (mean / worst)"], rows)
+    write_section("animation_late", "A correction shown frames late (playback with the resolve in the background)",
+                  f"{machine()}. {' '.join(late.__doc__.split())} The outfit and measures of the tables "
+                  f"above.\n\n{body}")
+
+
 if __name__ == "__main__":
-    beyond() if sys.argv[1:] == ["beyond"] else main()
+    {"beyond": beyond, "late": late}.get(sys.argv[1] if len(sys.argv) > 1 else "", main)()

@@ -4,8 +4,8 @@ rest-to-run ramp with the handler off and on: what a frame change costs, and wha
 with the share of the computing (core's resolve and the covered skin, what a worker thread
 could run); and played as the viewport plays (between the playback start and stop handlers) with
 While Playing, Resolve Every 2 and 3, where the frames between show the last resolve's correction
-(their median is a skipped frame's: the mean says what playback costs). The stages the handler
-runs are timed by the resolve's stats.
+(their median is a skipped frame's: the mean says what playback costs); and played in real time,
+resolving in the frame change or in the background (While Playing, Resolve in the Background).
 
     .venv/bin/python -m bench.playback      # writes the section of docs/REPORT.md (~1 min)
 """
@@ -29,6 +29,7 @@ def play(scene, on: bool, resolve_job, handler=None, step=1):
     scene.frame_set(FRAMES[0])
     scene.deformrt.resolve_on_frame_change = on
     scene.deformrt.playback_step = step
+    scene.deformrt.playback_in_background = False  # resolved in the frame change (play_dropping: beside it)
     if handler is not None:
         handler.on_playback_start(scene)
     seconds, core = [], []
@@ -53,20 +54,32 @@ def play(scene, on: bool, resolve_job, handler=None, step=1):
             handler.on_playback_stop(scene)
         scene.deformrt.resolve_on_frame_change = False
         scene.deformrt.playback_step = 1
+        scene.deformrt.playback_in_background = True
     return np.array(seconds[1:]) * 1000, np.array(core[1:]) * 1000
 
 
-def play_dropping(scene, handler, fps=24, frames=range(1, 49)):
-    """Played as the viewport plays with Sync: Frame Dropping: each frame change takes what it
-    takes, and the next frame shown is the one the clock has reached (at least the next). Returns
-    (frames shown, ms of each after the first)."""
+def play_dropping(scene, handler, resolve_job, background, fps=24, frames=range(1, 49)):
+    """Played in real time as the viewport plays with Sync: Frame Dropping: a frame starts when the
+    clock reaches it or when the last one ends (at least the next frame), and between frames the
+    main thread waits as Blender's does (a resolve in the background runs meanwhile). Returns
+    (frames shown, ms of each frame change after the first, per resolve shown how many frames old
+    it was)."""
     import bpy
 
     scene.deformrt.resolve_on_frame_change = False
+    scene.deformrt.playback_in_background = background
     scene.frame_set(frames[0])
     scene.deformrt.resolve_on_frame_change = True
     handler.on_playback_start(scene)
-    shown, seconds, clock, f = [], [], 0.0, frames[0]
+    shown, seconds, ages, f = [], [], [], frames[0]
+    original = resolve_job.finish_resolve
+
+    def aged(scene, job, output):
+        ages.append(scene.frame_current - job.frame)
+        return original(scene, job, output)
+
+    resolve_job.finish_resolve = aged
+    start = time.perf_counter()
     try:
         while f <= frames[-1]:
             t0 = time.perf_counter()
@@ -74,12 +87,15 @@ def play_dropping(scene, handler, fps=24, frames=range(1, 49)):
             bpy.context.evaluated_depsgraph_get()
             seconds.append(time.perf_counter() - t0)
             shown.append(f)
-            clock += max(seconds[-1], 1.0 / fps)
-            f = max(f + 1, frames[0] + int(clock * fps))
+            due = start + (f + 1 - frames[0]) / fps
+            time.sleep(max(due - time.perf_counter(), 0.0))
+            f = max(f + 1, frames[0] + int((time.perf_counter() - start) * fps))
     finally:
         handler.on_playback_stop(scene)
+        resolve_job.finish_resolve = original
         scene.deformrt.resolve_on_frame_change = False
-    return shown, np.array(seconds[1:]) * 1000
+        scene.deformrt.playback_in_background = True
+    return shown, np.array(seconds[1:]) * 1000, np.array(ages[:-1])  # the last: the stop frame's own
 
 
 def main():
@@ -108,11 +124,16 @@ def main():
                          f"{np.median(core):.0f}"])
             print(" | ".join(rows[-1]), flush=True)
         if subdivision:
-            shown, ms = play_dropping(scene, handler)
+            shown, ms, _ = play_dropping(scene, handler, resolve_job, background=False)
+            shown_bg, ms_bg, ages = play_dropping(scene, handler, resolve_job, background=True)
             dropping = (f"Played in real time at 24 fps with Sync set to Frame Dropping (frames 1-48, Subdivision on; "
-                        f"the next frame shown is the one the clock has reached): {len(shown)} of 48 frames shown, "
-                        f"{np.median(ms):.0f} ms a shown frame (median), each starting from the last one resolved "
-                        f"(frame_handler.PLAYBACK_REACH).")
+                        f"the next frame shown is the one the clock has reached). Resolved in the frame change: "
+                        f"{len(shown)} of 48 frames shown, {np.median(ms):.0f} ms a shown frame (median), each "
+                        f"starting from the last one resolved (frame_handler.PLAYBACK_REACH). Resolved in the "
+                        f"background (the default): {len(shown_bg)} of 48 frames shown, a frame change "
+                        f"{np.median(ms_bg):.0f} / {ms_bg.mean():.0f} / {ms_bg.max():.0f} ms (median / mean / max); "
+                        f"{len(ages)} resolves shown, each first on a frame {np.median(ages):.0f} after its own "
+                        f"(median; {ages.min()}-{ages.max()}).")
             print(dropping, flush=True)
     body = table(["scene", "resolved", "frame change, handler off (ms, median)", "handler on (median / mean / max)",
                   "the handler adds (median / mean)", "the computing of a resolve (core resolve, covered skin)"],

@@ -8,7 +8,7 @@ import bpy
 from bpy.app.handlers import persistent
 
 from ..io import blender_versions
-from . import frame_memory, report, resolve_job, result_stack, results, staleness
+from . import background_resolve, frame_memory, report, resolve_job, result_stack, results, staleness
 from .scene_read import LayeringInputError, layered_objects
 
 _busy = False
@@ -56,6 +56,7 @@ def switched(scene):
     change corrects."""
     _seen[scene.name] = scene.deformrt.resolve_on_frame_change
     _resolved.pop(scene.name, None)
+    background_resolve.drop()
     frame_memory.forget()
     if not scene.deformrt.resolve_on_frame_change:
         resolve_job.clear_scene(scene)
@@ -140,7 +141,8 @@ def resolve_frame(scene):
     """Resolve the frame shown now (frame after frame: from the last resolve, frame_memory)."""
     global _busy
     _resolved.pop(scene.name, None)
-    step = scene.deformrt.playback_step if _playback["playing"] else 1
+    background = _playback["playing"] and scene.deformrt.playback_in_background
+    step = scene.deformrt.playback_step if _playback["playing"] and not background else 1
     since = _playback["since"]
     if step > 1 and since is not None and since + 1 < step:
         # the modifier shows the last resolve's offsets on this frame's pose (docs/REPORT.md: poke-through
@@ -150,6 +152,9 @@ def resolve_frame(scene):
         return
     _busy = True  # reading the scene re-evaluates it; never re-enter
     try:
+        if background:
+            _play_in_background(scene)
+            return
         frame, last = scene.frame_current, _playback["last"]
         rendered_every = scene.frame_step if scene.name in _rendering and scene.frame_step > 1 else None
         correct_frame(scene, step, PLAYBACK_REACH if _playback["playing"] else rendered_every)
@@ -168,6 +173,24 @@ def resolve_frame(scene):
         report.write(scene, report.LayersReport(kind="stopped", message=message))
     finally:
         _busy = False
+
+
+def _play_in_background(scene):
+    """A frame of viewport playback with the resolve on a worker thread: the resolve that ended since
+    the last frame is shown (on this frame's pose: no cage check), and the next one starts from this
+    frame. The frame playback stops on is resolved whole (on_playback_stop)."""
+    done = background_resolve.take()
+    # one from far off (a loop's wrap back to the start) would show another pose's correction
+    if done is not None and abs(done[0].frame - scene.frame_current) <= PLAYBACK_REACH:
+        try:
+            resolve_job.finish_resolve(scene, *done)
+        except ReferenceError:  # an object it read was deleted while it ran: the next one reads anew
+            pass
+    if not background_resolve.busy():
+        _check_cloth(scene)
+        # step 0: frames the resolve has not reached show it, so it is written without its cages
+        background_resolve.start(resolve_job.prepare_resolve(scene, playing=True, step=0, reach=PLAYBACK_REACH))
+    _playback["since"], _playback["redo"], _playback["last"] = None, True, scene.frame_current
 
 
 def restarting_cloth(scene, objects):
@@ -198,6 +221,7 @@ def on_playback_stop(scene, _depsgraph=None):
     left it to the last resolve or resolved it without the cage check."""
     redo = _playback["redo"]
     _playback.update(playing=False, since=None, redo=False, last=None)
+    background_resolve.settle()
     if redo and scene.deformrt.resolve_on_frame_change and not _busy:
         resolve_frame(scene)
 
@@ -216,13 +240,17 @@ def correct_frame(scene, step=1, reach=None):
     """The layering of the current frame (what the handler runs); returns its summary. ``step`` > 1:
     playback resolves every ``step``-th frame (the last resolve is ``step`` frames back or nearer).
     ``reach``: how far back the last resolve may be for this frame to start from it (playback)."""
+    _check_cloth(scene)
+    return resolve_job.resolve_scene(scene, playing=True, step=step, reach=reach)
+
+
+def _check_cloth(scene):
     _, garments = layered_objects(scene)
     restarting = restarting_cloth(scene, garments)
     if restarting:
         raise LayeringInputError(
             f"{', '.join(restarting)}: bake the cloth first (Physics > Cache > Bake All Dynamics) or turn this "
             "on at the simulation's first frame; adding DeformRT's result restarts an unbaked simulation")
-    return resolve_job.resolve_scene(scene, playing=True, step=step, reach=reach)
 
 
 _RENDER_HANDLERS = (("render_init", on_render_init), ("render_complete", on_render_end),
@@ -256,6 +284,7 @@ def unregister():
         while fn in getattr(bpy.app.handlers, name):
             getattr(bpy.app.handlers, name).remove(fn)
     _rendering.clear()
+    background_resolve.drop()
     _playback.update(playing=False, since=None, redo=False, last=None)
     frame_memory.forget()
     _seen.clear()

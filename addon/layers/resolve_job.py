@@ -79,7 +79,8 @@ class ResolveJob:
     body_made_for: str
     read_s: float
     t0: float
-    step: int = 1  # playback resolving every step-th frame: the frames between show these offsets
+    step: int = 1  # playback resolving every step-th frame: the frames between show these offsets (0: as many
+    # as a resolve in the background takes, frame_handler)
 
 
 @dataclass

@@ -103,7 +103,9 @@ class DEFORMRT_PT_resolve(bpy.types.Panel):
         row.operator("deformrt.inspect_layers", icon="VIEWZOOM")
         layout.prop(settings, "resolve_on_frame_change")
         if settings.resolve_on_frame_change:
-            layout.prop(settings, "playback_step")
+            layout.prop(settings, "playback_in_background")
+            if not settings.playback_in_background:
+                layout.prop(settings, "playback_step")
         lines = report_lines(report.read(context.scene), scene_units.formatter(context.scene))
         if lines:
             box = layout.box().column(align=True)

@@ -3,6 +3,8 @@ would: what renders afterwards, what stays of the user's meshes, and the refusal
 
 import importlib
 import json
+import threading
+import time
 
 import bpy
 import numpy as np
@@ -401,6 +403,7 @@ def test_playback_resolving_every_second_frame_shows_the_last_correction_between
         return correct(scene, step, reach)
 
     monkeypatch.setattr(handler, "correct_frame", counted)
+    scene.deformrt.playback_in_background = False  # resolved in the frame change, every second frame
     scene.deformrt.playback_step = 2
     scene.deformrt.resolve_on_frame_change = True
     handler.on_playback_start(scene)
@@ -428,6 +431,73 @@ def test_playback_resolving_every_second_frame_shows_the_last_correction_between
         np.testing.assert_allclose(left - p2, shown - p1, atol=1e-5)
 
 
+def _settled(background):
+    """Wait for the background resolve to end (at most a minute)."""
+    end = time.monotonic() + 60.0
+    while background.busy() and time.monotonic() < end:
+        time.sleep(0.005)
+    assert not background.busy()
+
+
+def test_playback_in_the_background_shows_the_newest_resolve_and_resolves_the_frame_it_stops_on(
+        extension, clean_scene, monkeypatch):
+    """While playing with Resolve in the Background, a frame change computes nothing itself: core runs
+    on a worker thread, and a frame shows the newest resolve that ended before it (frame 1's
+    correction on frame 2's pose), unless it was for a frame far off (a loop's wrap). The frame
+    playback stops on is resolved on the main thread, the same as stepping to it with playback
+    stopped."""
+    handler = sub(extension, "addon.layers.frame_handler")
+    resolve_job = sub(extension, "addon.layers.resolve_job")
+    background = sub(extension, "addon.layers.background_resolve")
+    dressed = sub(extension, "sample_scenes.dressed")
+    _, _, garments = dressed.posed()
+    scene = bpy.context.scene
+    far = 2 + handler.PLAYBACK_REACH + 1
+    posed = {}
+    for f in (far, 2, 1):
+        scene.frame_set(f)
+        posed[f] = [evaluated(g)[0] for g in garments]
+    computed, compute = [], resolve_job.compute_resolve
+
+    def recorded(job):
+        out = compute(job)
+        computed.append((job.frame, threading.current_thread() is threading.main_thread(),
+                         [m.copy() for m in out.result.moved]))
+        return out
+
+    def offsets(frame):
+        return [evaluated(g)[0] - p for g, p in zip(garments, posed[frame], strict=True)]
+
+    monkeypatch.setattr(resolve_job, "compute_resolve", recorded)
+    assert scene.deformrt.playback_in_background  # the default
+    scene.deformrt.resolve_on_frame_change = True
+    handler.on_playback_start(scene)
+    scene.frame_set(1)
+    assert max(np.abs(o).max() for o in offsets(1)) < 1e-6  # nothing to show before a resolve ended
+    _settled(background)
+    assert [c[:2] for c in computed] == [(1, False)]
+    scene.frame_set(2)
+    shown_2 = offsets(2)
+    _settled(background)
+    assert [c[:2] for c in computed] == [(1, False), (2, False)]
+    for shown, moved_1, moved_2 in zip(shown_2, computed[0][2], computed[1][2], strict=True):
+        assert np.linalg.norm(moved_1, axis=1).max() > 1e-3  # frame 1 was corrected ...
+        np.testing.assert_allclose(shown, moved_1, atol=1e-5)  # ... and frame 2 shows it on its pose
+        assert np.abs(moved_2 - moved_1).max() > 1e-4  # (frame 2's own correction differs)
+    scene.frame_set(far)  # frame 2's resolve ended, but is too far back to show here
+    for shown, moved_1 in zip(offsets(far), computed[0][2], strict=True):
+        np.testing.assert_allclose(shown, moved_1, atol=1e-5)
+    handler.on_playback_stop(scene)
+    assert [c[:2] for c in computed[2:]] == [(far, False), (far, True)]
+    stopped = [evaluated(g)[0] for g in garments]
+    assert _garment_overlaps(garments) == 0
+    scene.frame_set(5)
+    scene.frame_set(far)  # stepped to after a jump, not playing
+    for s, j in zip(stopped, [evaluated(g)[0] for g in garments], strict=True):
+        np.testing.assert_allclose(s, j, atol=1e-6)
+    scene.deformrt.resolve_on_frame_change = False
+
+
 def _record_starts(monkeypatch, resolve_job, scene) -> list:
     """Each resolve from now on as (frame, whether core got the last frame's result as ``previous``)."""
     started_from, core = [], resolve_job.resolve_layers
@@ -452,6 +522,7 @@ def test_playback_that_drops_frames_starts_each_frame_from_the_last_resolve(exte
     scene = bpy.context.scene
     started_from = _record_starts(monkeypatch, resolve_job, scene)
     scene.frame_set(1)
+    scene.deformrt.playback_in_background = False  # resolved in the frame change
     scene.deformrt.resolve_on_frame_change = True
     handler.on_playback_start(scene)
     scene.frame_set(1)
