@@ -18,7 +18,7 @@ _replay = None  # while a frame bake writes its cache: (frame: writes, the bake'
 # Viewport playback (between animation_playback_pre and _post): frames since the last resolve, and
 # whether the frame shown now needs resolving when playback stops (left to the last resolve, or
 # resolved without the cage check that keeps a result off a mesh it was not made for).
-_playback = {"playing": False, "since": None, "redo": False, "last": None}
+_playback = {"playing": False, "since": None, "redo": False, "last": None, "uncaged": False}
 # Playing, Blender drops the frames it has no time to show (Sync: Frame Dropping or Sync to Audio), so
 # the next frame comes 2 or more after the last: it still starts from the last resolve (its body points
 # carried and checked, its faces held, its correction eased) up to this many frames back. Started
@@ -179,6 +179,13 @@ def _play_in_background(scene):
     """A frame of viewport playback with the resolve on a worker thread: the resolve that ended since
     the last frame is shown (on this frame's pose: no cage check), and the next one starts from this
     frame. The frame playback stops on is resolved whole (on_playback_stop)."""
+    if not _playback["uncaged"]:
+        # what the frame playback started from shows until the first resolve in the background ends
+        # (with its cage the garments would show as fitted for the frames the first resolve takes)
+        _playback["uncaged"] = True
+        body, garments = layered_objects(scene)
+        for o in (body, *garments):
+            results.check_cage(o, False)
     done = background_resolve.take()
     # one from far off (a loop's wrap back to the start) would show another pose's correction
     if done is not None and abs(done[0].frame - scene.frame_current) <= PLAYBACK_REACH:
@@ -212,7 +219,7 @@ def restarting_cloth(scene, objects):
 
 @persistent
 def on_playback_start(scene, _depsgraph=None):
-    _playback.update(playing=True, since=None, redo=False, last=None)
+    _playback.update(playing=True, since=None, redo=False, last=None, uncaged=False)
 
 
 @persistent
@@ -220,7 +227,7 @@ def on_playback_stop(scene, _depsgraph=None):
     """Playback stopped: the frame it stopped on is resolved as stepping to it would, if playback
     left it to the last resolve or resolved it without the cage check."""
     redo = _playback["redo"]
-    _playback.update(playing=False, since=None, redo=False, last=None)
+    _playback.update(playing=False, since=None, redo=False, last=None, uncaged=False)
     background_resolve.settle()
     if redo and scene.deformrt.resolve_on_frame_change and not _busy:
         resolve_frame(scene)
@@ -285,7 +292,7 @@ def unregister():
             getattr(bpy.app.handlers, name).remove(fn)
     _rendering.clear()
     background_resolve.drop()
-    _playback.update(playing=False, since=None, redo=False, last=None)
+    _playback.update(playing=False, since=None, redo=False, last=None, uncaged=False)
     frame_memory.forget()
     _seen.clear()
     _resolved.clear()
