@@ -141,8 +141,10 @@ def resolve_frame(scene):
     """Resolve the frame shown now (frame after frame: from the last resolve, frame_memory)."""
     global _busy
     _resolved.pop(scene.name, None)
-    background = _playback["playing"] and scene.deformrt.playback_in_background
-    step = scene.deformrt.playback_step if _playback["playing"] and not background else 1
+    # a render started while the viewport plays resolves every frame it renders, whole
+    playing = _playback["playing"] and scene.name not in _rendering
+    background = playing and scene.deformrt.playback_in_background
+    step = scene.deformrt.playback_step if playing and not background else 1
     since = _playback["since"]
     if step > 1 and since is not None and since + 1 < step:
         # the modifier shows the last resolve's offsets on this frame's pose (docs/REPORT.md: poke-through
@@ -157,12 +159,15 @@ def resolve_frame(scene):
             return
         frame, last = scene.frame_current, _playback["last"]
         rendered_every = scene.frame_step if scene.name in _rendering and scene.frame_step > 1 else None
-        correct_frame(scene, step, PLAYBACK_REACH if _playback["playing"] else rendered_every)
+        if _playback["playing"]:
+            background_resolve.settle()  # a render's frame: not beside a resolve playback started
+        correct_frame(scene, step, PLAYBACK_REACH if playing else rendered_every)
         # the frame playback stops on is resolved again as stepping to it would (on_playback_stop) where
         # this one was left frames to, or started from a resolve more than a frame away
-        dropped = _playback["playing"] and last is not None and abs(frame - last) > 1
-        _playback["since"], _playback["redo"] = (0, True) if step > 1 else (None, dropped)
-        _playback["last"] = frame if _playback["playing"] else None
+        dropped = playing and last is not None and abs(frame - last) > 1
+        if playing == _playback["playing"]:  # a render's frame leaves what playback keeps as it was
+            _playback["since"], _playback["redo"] = (0, True) if step > 1 else (None, dropped)
+            _playback["last"] = frame if playing else None
         if step == 1:  # written with their cages
             _resolved[scene.name] = frame
     except (ValueError, RuntimeError) as exc:

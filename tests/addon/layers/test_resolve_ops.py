@@ -500,6 +500,48 @@ def test_playback_in_the_background_shows_the_newest_resolve_and_resolves_the_fr
     scene.deformrt.resolve_on_frame_change = False
 
 
+def test_a_render_while_the_viewport_plays_resolves_its_frames_whole(extension, clean_scene, monkeypatch):
+    """A render's frames are resolved on the main thread, whole, even while the viewport plays with
+    the resolve in the background or every second frame; playback goes on as it was after it."""
+    handler = sub(extension, "addon.layers.frame_handler")
+    resolve_job = sub(extension, "addon.layers.resolve_job")
+    background = sub(extension, "addon.layers.background_resolve")
+    dressed = sub(extension, "sample_scenes.dressed")
+    dressed.posed()
+    scene = bpy.context.scene
+    computed, compute = [], resolve_job.compute_resolve
+
+    def recorded(job):
+        computed.append((job.frame, threading.current_thread() is threading.main_thread(), job.step))
+        return compute(job)
+
+    monkeypatch.setattr(resolve_job, "compute_resolve", recorded)
+    scene.deformrt.resolve_on_frame_change = True
+    for in_background in (True, False):
+        scene.deformrt.playback_in_background = in_background
+        scene.deformrt.playback_step = 2
+        scene.frame_set(1)
+        handler.on_playback_start(scene)
+        scene.frame_set(2)
+        _settled(background)
+        handler.on_render_init(scene)
+        scene.frame_set(3)
+        scene.frame_set(4)
+        handler.on_render_end(scene)
+        assert computed[-2:] == [(3, True, 1), (4, True, 1)]  # whole, with their cages
+        scene.frame_set(5)
+        _settled(background)
+        if in_background:
+            assert computed[-1] == (5, False, 0)
+        else:  # frame 2 was the last resolved in playback: 5 is left to it, 6 resolved
+            scene.frame_set(6)
+            assert computed[-2:] == [(4, True, 1), (6, True, 2)]
+        handler.on_playback_stop(scene)
+    scene.deformrt.playback_step = 1
+    scene.deformrt.playback_in_background = True
+    scene.deformrt.resolve_on_frame_change = False
+
+
 def _record_starts(monkeypatch, resolve_job, scene) -> list:
     """Each resolve from now on as (frame, whether core got the last frame's result as ``previous``)."""
     started_from, core = [], resolve_job.resolve_layers
