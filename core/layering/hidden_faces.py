@@ -77,6 +77,17 @@ def crossing_faces(vertices, faces, edges, scenes=None) -> tuple[list, int]:
     return removed, rays
 
 
+def edges_through_lower(vertices, faces, edges, scenes=None) -> list:
+    """(lower layer j, higher layer k, edge ids of k) for every higher layer's edges that pass through a
+    triangle of a lower layer (lists ordered inner to outer; ``edges`` as sorted vertex pairs;
+    ``scenes`` as crossing_faces takes them)."""
+    present = [k for k in range(len(faces)) if len(faces[k])]
+    if len(present) < 2:
+        return []
+    found, _ = _edges_through_others(_Layers(vertices, faces, edges, scenes, present), lower_only=True)
+    return [(j, k, idx) for j, pairs in found.items() for k, idx in pairs]
+
+
 class _Layers:
     """The layers' edges as rays (start, vector, length), their boxes, and a scene per layer
     built when first asked."""
@@ -96,16 +107,17 @@ class _Layers:
         return self._built[j]
 
 
-def _edges_through_others(layers):
-    """Per layer j: (layer k, its edges that pass through something of j) for every other layer k;
-    and rays traced. Each layer's edges go once against all the others together: few cross
-    anything, and only those are asked of each layer in turn."""
+def _edges_through_others(layers, lower_only=False):
+    """Per layer j: (layer k, its edges that pass through something of j) for every other layer k
+    (``lower_only``: every layer k above j); and rays traced. Each layer's edges go once against
+    all the others together: few cross anything, and only those are asked of each layer in turn."""
     bounds, length, present = layers.bounds, layers.length, layers.present
     found = {j: [] for j in present}
     rays = 0
     for k in present:
         own_lo, own_hi = bounds[k]
-        others = [j for j in present if j != k and (bounds[j][0] <= own_hi).all() and (bounds[j][1] >= own_lo).all()]
+        others = [j for j in present if (j < k if lower_only else j != k)
+                  and (bounds[j][0] <= own_hi).all() and (bounds[j][1] >= own_lo).all()]
         if not others:
             continue
         lo = np.min([bounds[j][0] for j in others], axis=0)

@@ -34,7 +34,7 @@ class LayerStack:
             self.scenes[i] = SegmentScenes(self.verts[i], self.layouts[i], prep.content(i))
         self.rays = {"boundary": 0, "push": 0, "hidden": 0}
         self._creases = {}
-        self.moved_by = {"lift": 0, "boundary": 0, "push": 0, "relaxed": 0}
+        self.moved_by = {"lift": 0, "boundary": 0, "push": 0, "room": 0, "relaxed": 0}
         # A lower bound on each vertex's distance from the body: the distance found at rest minus
         # every inward move since (distance is 1-Lipschitz). Unlike a ray along -n', it also sees
         # body parts beside the ray (a joint bulging next to a limb). Inside the body: no bound.

@@ -12,7 +12,7 @@ from ..geometry.vectors import box, size_of
 from .segmentation import Scheme, get_scheme
 
 KNOWN = frozenset({"offset", "probe_distance", "garment_segments", "global_normals", "boundary_pass", "push_behind",
-                   "body_guard", "remove_hidden", "falloff", "scheme", "segment_links", "correspondence",
+                   "body_guard", "outer_room", "remove_hidden", "falloff", "scheme", "segment_links", "correspondence",
                    "segment_margin", "outward_shells", "simulated"})
 
 
@@ -105,6 +105,7 @@ class LayeringParameters:
     boundary_pass: bool
     push_behind: bool
     body_guard: bool
+    outer_room: bool
     remove_hidden: bool
     falloff: float | None
     simulated: list  # per garment: its cloth is simulated (resolve._guarded, frame_coherence.held_hidden)
@@ -133,6 +134,7 @@ class LayeringParameters:
                    segment_margin=margin, diagonal=diag, garment_segments=g_segments, global_normals=g_normals,
                    correspondence=g_corr, boundary_pass=bool(params.get("boundary_pass", True)),
                    push_behind=bool(params.get("push_behind", True)), body_guard=bool(params.get("body_guard", True)),
+                   outer_room=bool(params.get("outer_room", True)),
                    remove_hidden=bool(params.get("remove_hidden", True)),
                    falloff=None if falloff is None else float(falloff),
                    simulated=[bool(s) for s in _per_garment(params.get("simulated"), n_g, "simulated")])

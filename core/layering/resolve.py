@@ -24,6 +24,7 @@ from .frame_coherence import BodyNow, History, eased, held_hidden
 from .garment_prep import GarmentPrep
 from .hidden_faces import crossing_faces
 from .layer_stack import LayerStack
+from .outer_room import make_room
 from .parameters import LayeringParameters, check_known, inside_out, read_meshes
 from .probes import probe_reach, widened
 from .push_behind import push_behind
@@ -71,7 +72,9 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
         segment_margin: garment points within sqrt(2) times their body distance plus this
             much of a place where their part meets another (a junction on the body) also trace
             against that part; default 1% of the body's diagonal (about 2 cm on a person), 0 for strict parts.
-        boundary_pass, push_behind, body_guard, remove_hidden: bool stages, all on by default.
+        boundary_pass, push_behind, body_guard, outer_room, remove_hidden: bool stages, all on by
+            default. The outer room stage (core.outer_room) moves a higher layer's edges out
+            where they still pass through a lower layer the body holds.
             The body guard takes back moves that put cloth through the body (core.body_guard):
             a body with no sharp edges (a smooth scan) rarely needs it.
         falloff: Gaussian radius c of the boundary pass's spread, scene units; default
@@ -111,6 +114,10 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
     stack = LayerStack(facts, garment_arrays, prep, p)
     lifts = _lift(stack, prep, previous, timings)
     _fit_layers(stack, timings)
+    if p.outer_room:
+        t0 = time.perf_counter()
+        make_room(stack)
+        timings["outer_room_s"] = time.perf_counter() - t0
     _shorten_torn(stack)
     body_turn = facts.normals  # how the cloth turned since: as the body under each point did
     n_eased, eased_most, eased_past_gap = _ease(stack, garment_arrays, prep, previous, p.offset, body_turn)
@@ -220,7 +227,7 @@ def _ease(stack, garment_arrays, prep, previous, offset, body_turn) -> tuple[int
             if _guarded(stack, k):
                 smoothed = _guard_ease(stack, k, own, smoothed)
             left = norms(smoothed - own)
-            count, most, past = count + n, max(most, float(left.max())), past + int((left > stack.params.gap).sum())
+            count, most, past = count + n, max(most, float(left.max())), past + int((left > stack.gap).sum())
             stack.moved(k, smoothed)
     return count, most, past
 
@@ -324,6 +331,7 @@ def _stats(stack, prep, reach, removed, timings) -> dict:
         "vertices_lifted_off_body": stack.moved_by["lift"],
         "vertices_moved_boundary": stack.moved_by["boundary"],
         "vertices_moved_push": stack.moved_by["push"],
+        "vertices_moved_room": stack.moved_by["room"],
         "vertices_held_by_body": stack.floor_clamped,
         "vertices_kept_out_of_body": stack.backed_off,
         "vertices_relaxed": stack.moved_by["relaxed"],

@@ -88,20 +88,26 @@ def _pops(masks):
     return int(((m[1:-1] != m[:-2]) & (m[1:-1] != m[2:])).sum())
 
 
-def test_a_face_that_crosses_every_other_frame_never_blinks():
+@pytest.mark.parametrize("outer_room", [False, True])
+def test_a_face_that_crosses_every_other_frame_never_blinks(outer_room):
+    """Hidden in a frame: what crossed in it or in the HIDE_HOLD frames before. With the outer room
+    stage the higher layer's dent goes out by a gap where it still crosses, and easing holds that
+    from frame to frame, so which faces cross differs from the frames resolved alone: there only
+    no face may blink."""
     body = body_tube()
     frames = [_dented(k % 2 == 0) for k in range(7)]
-    first = resolve_layers(body, frames[0])
+    first = resolve_layers(body, frames[0], outer_room=outer_room)
     kept = first.found()[1]
-    alone = [resolve_layers(body, g, correspondence=kept).removed_faces[0] for g in frames]
+    alone = [resolve_layers(body, g, correspondence=kept, outer_room=outer_room).removed_faces[0] for g in frames]
     assert any(m.any() for m in alone) and _pops(alone) > 0  # each frame by itself blinks
     chain, last = [], None
     for g in frames:
-        last = resolve_layers(body, g, correspondence=kept, previous=last)
+        last = resolve_layers(body, g, correspondence=kept, previous=last, outer_room=outer_room)
         chain.append(last.removed_faces[0])
     assert _pops(chain) == 0
-    for t, m in enumerate(chain):  # hidden: what crossed in this frame or the HIDE_HOLD before it
-        np.testing.assert_array_equal(m, np.any(alone[max(0, t - HIDE_HOLD):t + 1], axis=0))
+    if not outer_room:
+        for t, m in enumerate(chain):  # hidden: what crossed in this frame or the HIDE_HOLD before it
+            np.testing.assert_array_equal(m, np.any(alone[max(0, t - HIDE_HOLD):t + 1], axis=0))
 
 
 @pytest.mark.parametrize("bad", ["count", "faces"])

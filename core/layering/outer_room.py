@@ -1,0 +1,73 @@
+"""A higher layer's long edge dipping through a lower layer between the lower layer's vertices: push
+behind puts each lower vertex a gap behind the higher layer along its probe, but where the body
+leaves the lower layer no room (an armpit, a crotch) and the higher layer's triangles are long
+(17-86 mm on MakeHuman's casual suit across the armpit crease), the higher edge still passes
+through lower triangles between their corners. Hidden, such a triangle is seen edge-on past the
+higher layer's outline as a hole. Here the higher edge's ends go out instead, by how far the lower
+layer lies over the edge, plus the offset."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry.vectors import unit
+from .hidden_faces import edges_through_lower
+
+# points along a crossing edge where the lower layer's height over it is found
+SAMPLES = 9
+# the most an end goes out, in gaps between layers (farther, the lower layer is not what is over it)
+MOST = 1.0
+
+
+def make_room(stack) -> int:
+    """Move the ends of each higher layer's edges that pass through a lower layer out along their
+    global normals until the lower layer lies an offset behind the whole edge. Returns how many
+    vertices moved."""
+    active = stack.active
+    if len(active) < 2 or all(stack.params.simulated[k] for k in active[1:]):
+        return 0
+    lift = {}
+    crossing = edges_through_lower([stack.verts[i] for i in active], [stack.faces[i] for i in active],
+                                   [stack.edges[i] for i in active], [stack.scenes[i].full() for i in active])
+    for j, k, idx in crossing:
+        k = active[k]
+        if stack.params.simulated[k]:  # a solver's cloth keeps its contacts: its crossing faces hide
+            continue
+        e = stack.edges[k][idx]
+        need = _height_over(stack, active[j], k, e)
+        out = lift.setdefault(k, np.zeros(len(stack.verts[k])))
+        for end in (0, 1):
+            np.maximum.at(out, e[:, end], need)
+    moved = 0
+    for k, out in lift.items():
+        go = out > 0
+        if go.any():
+            v = stack.verts[k].copy()
+            v[go] += stack.normals[k][go] * out[go, None]
+            stack.clearance[k][go] = np.maximum(stack.clearance[k][go] - out[go], 0.0)
+            stack.moved(k, v)
+            moved += int(go.sum())
+    stack.moved_by["room"] += moved
+    return moved
+
+
+def _height_over(stack, j, k, e):
+    """Per edge (vertex pairs of layer k), how far out its ends must go for layer j to lie an offset
+    behind it: the most layer j lies over a point of it, along the edge's interpolated normal."""
+    v, n = stack.verts[k], stack.normals[k]
+    s = np.linspace(0.0, 1.0, SAMPLES)
+    a, b = v[e[:, 0]], v[e[:, 1]]
+    pts = (a[:, None, :] + s[None, :, None] * (b - a)[:, None, :]).reshape(-1, 3)
+    nrm = unit((n[e[:, 0]][:, None, :] * (1 - s)[None, :, None] + n[e[:, 1]][:, None, :] * s[None, :, None])
+               .reshape(-1, 3))
+    reach = MOST * stack.gap
+    hits = stack.scenes[j].full().intersect(pts, nrm, max_dist=reach)
+    over = np.where(hits.hit, hits.t, 0.0).reshape(len(e), SAMPLES)
+    need = np.where(over.max(1) > 0, np.minimum(over.max(1) + stack.params.offset, reach), 0.0)
+    # only where the body holds the lower layer: with room behind it, push put it where it is for
+    # another reason (cloth far from the body, beyond its probes), and the higher layer stays
+    room = np.full(hits.hit.shape, np.inf)
+    corners = stack.faces[j][hits.face[hits.hit]]
+    room[hits.hit] = stack.room_of(j, corners.ravel()).reshape(-1, 3).min(1)
+    held = room.reshape(len(e), SAMPLES).min(1) < need
+    return np.where(held, need, 0.0)

@@ -1,0 +1,45 @@
+"""The outer room stage: a higher layer's edges that still pass through a lower layer the body holds go
+out, by at most MOST gaps, and nothing else of it moves."""
+
+import numpy as np
+
+from core.layering import resolve_layers
+from core.layering.outer_room import MOST
+from tests.core.brute import brute_crossings
+from tests.core.layered_cases import body_tube
+from tests.core.layering.test_frames import _dented
+
+
+def test_a_higher_layer_dipping_onto_a_held_lower_layer_goes_out_over_it_and_nowhere_else():
+    body = body_tube()
+    low, high = _dented(True)  # the higher sleeve dips to 1.5 mm off the body: the lower one has no room
+    without = resolve_layers(body, [low, high], outer_room=False)
+    res = resolve_layers(body, [low, high])
+    assert without.stats["vertices_moved_room"] == 0 < res.stats["vertices_moved_room"]
+
+    def crossing(r):  # every edge against every triangle, nothing hidden
+        return brute_crossings(low.vertices + r.moved[0], low.faces, high.vertices + r.moved[1], high.faces)
+
+    before, after = crossing(without), crossing(res)
+    assert before > 0 and after <= 0.5 * before
+    assert res.removed_faces[0].sum() < without.removed_faces[0].sum()
+    np.testing.assert_array_equal(res.moved[0], without.moved[0])  # the lower layer is where it was
+    went = res.moved[1] - without.moved[1]
+    out = np.linalg.norm(went, axis=1)
+    radial = high.vertices[:, :2] / np.linalg.norm(high.vertices[:, :2], axis=1, keepdims=True)
+    moved = out > 0
+    # out along the sleeve's normals (the tube's radial direction), by at most MOST gaps
+    assert (np.einsum("ij,ij->i", went[moved, :2], radial[moved]) > 0.99 * out[moved]).all()
+    assert out.max() <= MOST * res.stats["gap"] * (1 + 1e-9)
+    # only over the dent: the patch 0.35 rad either side of +x, 6 cm either side of z = 0.3, and an edge round it
+    ang = np.arctan2(high.vertices[:, 1], high.vertices[:, 0])
+    near = (np.abs(ang) < 0.35 + 0.2) & (np.abs(high.vertices[:, 2] - 0.3) < 0.06 + 0.02)
+    assert moved.any() and not (moved & ~near).any()
+
+
+def test_with_room_behind_the_lower_layer_the_higher_one_stays():
+    """Without the dent the lower sleeve has room, nothing crosses, and the stage moves nothing."""
+    body = body_tube()
+    res = resolve_layers(body, _dented(False))
+    assert res.stats["vertices_moved_room"] == 0
+    np.testing.assert_array_equal(res.moved[1], resolve_layers(body, _dented(False), outer_room=False).moved[1])
