@@ -129,6 +129,13 @@ class DeformRTSceneProperties(bpy.types.PropertyGroup):
                     "collider); a smooth body rarely needs it",
         default=True,
     )
+    outer_room: BoolProperty(
+        name="Outer Layer Makes Room",
+        description="Where the body leaves a lower layer no room and a higher layer's long edges still pass "
+                    "through it (armpits, crotch), move those edges out by up to a gap instead of hiding the "
+                    "lower triangles, which could show as holes past the higher layer's outline",
+        default=True,
+    )
     remove_hidden: BoolProperty(
         name="Hide Poke-Through",
         description="Leave out triangles that still cross a higher layer after the move",

@@ -26,7 +26,7 @@ from .scene_read import (
 def found_without_moves(arrays, **params):
     """resolve_layers with every moving stage off: segments, skirts and global normals."""
     return resolve_layers(as_trimesh(arrays[0]), [as_trimesh(a) for a in arrays[1:]], boundary_pass=False,
-                          push_behind=False, remove_hidden=False, **params)
+                          push_behind=False, outer_room=False, remove_hidden=False, **params)
 
 
 def _check_own_vertices(objs, arrays, what):

@@ -97,7 +97,7 @@ class ResolveOutput:
 def _params(settings, scene_read) -> dict:
     """resolve_layers' keywords from the panel's settings and what was read."""
     params = {"boundary_pass": settings.boundary_pass, "body_guard": settings.body_guard,
-              "remove_hidden": settings.remove_hidden}
+              "outer_room": settings.outer_room, "remove_hidden": settings.remove_hidden}
     if settings.offset > 0:
         params["offset"] = settings.offset
     probe = probe_distances(settings, scene_read.parts is not None)

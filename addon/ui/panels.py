@@ -94,6 +94,7 @@ class DEFORMRT_PT_resolve(bpy.types.Panel):
             col.operator("deformrt.add_part_probe", text="Reach for One Part", icon="ADD")
         layout.prop(settings, "boundary_pass")
         layout.prop(settings, "body_guard")
+        layout.prop(settings, "outer_room")
         layout.prop(settings, "remove_hidden")
         layout.prop(settings, "hide_covered_skin")
         # everyday work first; exports (long) apart; the one that removes work last, set off
