@@ -96,8 +96,11 @@ class ResolveOutput:
 
 def _params(settings, scene_read) -> dict:
     """resolve_layers' keywords from the panel's settings and what was read."""
+    # a shell grown inward after the correction lies behind the garment's surface, and the lower layer's
+    # triangles it crosses are hidden; lifted clear of the surface only, they would cross the shell
     params = {"boundary_pass": settings.boundary_pass, "body_guard": settings.body_guard,
-              "outer_room": settings.outer_room, "remove_hidden": settings.remove_hidden}
+              "outer_room": settings.outer_room and not any(result_stack.shelled(g) for g in scene_read.garments),
+              "remove_hidden": settings.remove_hidden}
     if settings.offset > 0:
         params["offset"] = settings.offset
     probe = probe_distances(settings, scene_read.parts is not None)
@@ -109,6 +112,9 @@ def _params(settings, scene_read) -> dict:
     solved = [result_stack.simulated(g) for g in scene_read.garments]
     if any(solved):
         params["simulated"] = solved
+    smoothed = [result_stack.subdivided(g) for g in scene_read.garments]
+    if any(smoothed):
+        params["subdivided"] = smoothed
     if settings.scheme == "NONE":
         params["segment_links"] = True  # the body's separate pieces are still one body
     if scene_read.parts is not None:

@@ -141,6 +141,17 @@ def simulated(obj) -> bool:
     return any(m.type in {"CLOTH", "SOFT_BODY"} and (m.show_viewport or m.show_render) for m in obj.modifiers)
 
 
+def shelled(obj) -> bool:
+    """Whether a Solidify after the result gives the corrected garment a second shell."""
+    return any(m.type == "SOLIDIFY" and (m.show_viewport or m.show_render) for m in after_cut(obj))
+
+
+def subdivided(obj) -> bool:
+    """Whether a Subdivision Surface after the result smooths the corrected garment (in the viewport or
+    the render): the resolve then widens what it lifts (core.layering.outer_room)."""
+    return any(m.type == "SUBSURF" and (m.show_viewport or m.show_render) for m in after_cut(obj))
+
+
 def outward_shell(obj) -> float:
     """How far, in world units, Solidify modifiers after the result grow the corrected garment
     outward (offset 1 grows it all outward, -1, the default, all inward): the resolve leaves

@@ -16,6 +16,12 @@ _FADE = 0.25
 RATE = 0.5
 
 
+def inner_shell(stack, k):
+    """Layer k's vertices facing the body, if it has thickness (two shells, _SHELLED); else None."""
+    facing_in = np.einsum("ij,ij->i", vertex_normals(stack.verts[k], stack.faces[k]), stack.normals[k]) < 0
+    return facing_in if facing_in.mean() > _SHELLED else None
+
+
 def lift_off_body(stack, k, distance, held=None) -> np.ndarray:
     """Lift layer k of the LayerStack where it lies under its floor or inside the body; ``distance``:
     each vertex's distance from its nearest body point (the way out, when inside). Left as they are:
@@ -35,8 +41,8 @@ def lift_off_body(stack, k, distance, held=None) -> np.ndarray:
     # the reach as the figure moves would be lifted by the whole depth one frame and not the next
     reach = stack.probe_len[k]
     lift *= np.clip((reach - distance) / (_FADE * np.maximum(reach, 1e-30)), 0.0, 1.0)
-    facing_in = np.einsum("ij,ij->i", vertex_normals(stack.verts[k], stack.faces[k]), stack.normals[k]) < 0
-    if facing_in.mean() > _SHELLED:
+    facing_in = inner_shell(stack, k)
+    if facing_in is not None:
         lift[facing_in] = 0.0
     needed = lift
     if held is not None and len(held) == len(lift):

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.vectors import unit
+from .body_lift import inner_shell
 from .hidden_faces import edges_through_lower
 
 # points along a crossing edge where the lower layer's height over it is found
@@ -26,12 +27,16 @@ def make_room(stack) -> int:
     active = stack.active
     if len(active) < 2 or all(stack.params.simulated[k] for k in active[1:]):
         return 0
-    lift = {}
+    lift, shells = {}, {}
     crossing = edges_through_lower([stack.verts[i] for i in active], [stack.faces[i] for i in active],
                                    [stack.edges[i] for i in active], [stack.scenes[i].full() for i in active])
     for j, k, idx in crossing:
         k = active[k]
         if stack.params.simulated[k]:  # a solver's cloth keeps its contacts: its crossing faces hide
+            continue
+        if k not in shells:
+            shells[k] = inner_shell(stack, k) is not None
+        if shells[k]:  # a garment with thickness hides what crosses its inner shell behind its outer one
             continue
         e = stack.edges[k][idx]
         need = _height_over(stack, active[j], k, e)
@@ -40,6 +45,8 @@ def make_room(stack) -> int:
             np.maximum.at(out, e[:, end], need)
     moved = 0
     for k, out in lift.items():
+        if stack.params.subdivided[k]:
+            out = _one_ring_wider(out, stack.edges[k])
         go = out > 0
         if go.any():
             v = stack.verts[k].copy()
@@ -49,6 +56,18 @@ def make_room(stack) -> int:
             moved += int(go.sum())
     stack.moved_by["room"] += moved
     return moved
+
+
+def _one_ring_wider(lift, edges):
+    """The lift, each vertex's also taken by its neighbours: a bump one edge wide, smoothed by a
+    Subdivision Surface after the correction, sinks back about halfway and passes through the lower
+    layer again (the rigged sample with Subdivision: 2-15 crossing edges on 10 frames of 96, against
+    2-3 on 2 frames with the plateau). Not by default: on the cage itself the wider lift doubles the
+    vertices moved, and the walk's jitter p99 goes 0.84 -> 0.96 mm."""
+    out = lift.copy()
+    np.maximum.at(out, edges[:, 0], lift[edges[:, 1]])
+    np.maximum.at(out, edges[:, 1], lift[edges[:, 0]])
+    return out
 
 
 def _height_over(stack, j, k, e):

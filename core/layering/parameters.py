@@ -13,7 +13,7 @@ from .segmentation import Scheme, get_scheme
 
 KNOWN = frozenset({"offset", "probe_distance", "garment_segments", "global_normals", "boundary_pass", "push_behind",
                    "body_guard", "outer_room", "remove_hidden", "falloff", "scheme", "segment_links", "correspondence",
-                   "segment_margin", "outward_shells", "simulated"})
+                   "segment_margin", "outward_shells", "simulated", "subdivided"})
 
 
 MAX_OFFSET = 0.05  # of the body's size
@@ -109,6 +109,7 @@ class LayeringParameters:
     remove_hidden: bool
     falloff: float | None
     simulated: list  # per garment: its cloth is simulated (resolve._guarded, frame_coherence.held_hidden)
+    subdivided: list  # per garment: a Subdivision Surface smooths it after the correction (outer_room)
 
     @classmethod
     def parse(cls, body, body_vertices, body_faces, garment_arrays, body_segments, params) -> LayeringParameters:
@@ -137,7 +138,8 @@ class LayeringParameters:
                    outer_room=bool(params.get("outer_room", True)),
                    remove_hidden=bool(params.get("remove_hidden", True)),
                    falloff=None if falloff is None else float(falloff),
-                   simulated=[bool(s) for s in _per_garment(params.get("simulated"), n_g, "simulated")])
+                   simulated=[bool(s) for s in _per_garment(params.get("simulated"), n_g, "simulated")],
+                   subdivided=[bool(s) for s in _per_garment(params.get("subdivided"), n_g, "subdivided")])
 
 
 def _body_parts(body, body_vertices, body_segments):

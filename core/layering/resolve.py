@@ -90,6 +90,9 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
             skinned: frame after frame its crossing faces are hidden every frame they cross
             (frame_coherence.held_hidden), and neither its lift nor its easing may put it
             through the body (_guarded).
+        subdivided: per garment, whether a Subdivision Surface smooths it after the correction: the
+            outer room stage then lifts a ring wider, so the smoothed bump still clears the layer
+            under it (core.layering.outer_room).
     """
     t_start = time.perf_counter()
     timings = {}

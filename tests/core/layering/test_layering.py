@@ -467,6 +467,8 @@ def test_bad_parameters_raise():
             resolve_layers(body_tube(), noisy_sleeves(), outward_shells=shells)
     with pytest.raises(ValueError, match="simulated needs one entry per garment"):
         resolve_layers(body_tube(), noisy_sleeves(), simulated=[True])
+    with pytest.raises(ValueError, match="subdivided needs one entry per garment"):
+        resolve_layers(body_tube(), noisy_sleeves(), subdivided=[True, False, True])
     for falloff in (0.0, -1.0, np.nan, np.inf):  # NaN used to change the result, 0 to divide by it
         with pytest.raises(ValueError, match="falloff"):
             resolve_layers(body_tube(), noisy_sleeves(), falloff=falloff)

@@ -43,3 +43,21 @@ def test_with_room_behind_the_lower_layer_the_higher_one_stays():
     res = resolve_layers(body, _dented(False))
     assert res.stats["vertices_moved_room"] == 0
     np.testing.assert_array_equal(res.moved[1], resolve_layers(body, _dented(False), outer_room=False).moved[1])
+
+
+def test_before_a_subdivision_the_lift_is_one_ring_wider_and_as_high():
+    """With a Subdivision Surface after the correction, each lifted vertex's neighbours go out as far
+    (a bump one edge wide would be smoothed back through the lower layer): the vertices moved are
+    the ones moved without it and every neighbour of one, each by the most of its own and theirs."""
+    body = body_tube()
+    low, high = _dented(True)
+    plain = resolve_layers(body, [low, high], outer_room=False)
+    base = np.linalg.norm(resolve_layers(body, [low, high]).moved[1] - plain.moved[1], axis=1)
+    wide = np.linalg.norm(resolve_layers(body, [low, high], subdivided=[False, True]).moved[1] - plain.moved[1], axis=1)
+    neighbours = [set() for _ in range(len(high.vertices))]
+    for f in high.faces:
+        for a in f:
+            neighbours[a].update(int(b) for b in f if b != a)
+    expected = np.array([max([base[v]] + [base[u] for u in neighbours[v]]) for v in range(len(base))])
+    assert (wide > 0).sum() > (base > 0).sum()
+    np.testing.assert_allclose(wide, expected, atol=1e-12)
