@@ -44,7 +44,7 @@ def make_room(stack) -> int:
         for end in (0, 1):
             np.maximum.at(out, e[:, end], need)
     moved = 0
-    for k, out in lift.items():
+    for k, out in sorted(lift.items(), reverse=True):  # from the outside in: each capped by where those over it went
         if stack.params.subdivided[k]:
             out = _one_ring_wider(out, stack.edges[k])
         out = _below_the_next(stack, k, out)
