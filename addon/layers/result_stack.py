@@ -136,20 +136,25 @@ def moving_after(obj) -> list:
     return [m.name for m in after_cut(obj) if m.type in MOVING and (m.show_viewport or m.show_render)]
 
 
+def _uses(modifiers, types) -> bool:
+    """Whether any of ``modifiers`` of one of ``types`` is shown in the viewport or the render."""
+    return any(m.type in types and (m.show_viewport or m.show_render) for m in modifiers)
+
+
 def simulated(obj) -> bool:
     """Whether a cloth or soft body solver moves the garment (shown in the viewport or the render)."""
-    return any(m.type in {"CLOTH", "SOFT_BODY"} and (m.show_viewport or m.show_render) for m in obj.modifiers)
+    return _uses(obj.modifiers, {"CLOTH", "SOFT_BODY"})
 
 
 def shelled(obj) -> bool:
     """Whether a Solidify after the result gives the corrected garment a second shell."""
-    return any(m.type == "SOLIDIFY" and (m.show_viewport or m.show_render) for m in after_cut(obj))
+    return _uses(after_cut(obj), {"SOLIDIFY"})
 
 
 def subdivided(obj) -> bool:
     """Whether a Subdivision Surface after the result smooths the corrected garment (in the viewport or
     the render): the resolve then widens what it lifts (core.layering.outer_room)."""
-    return any(m.type == "SUBSURF" and (m.show_viewport or m.show_render) for m in after_cut(obj))
+    return _uses(after_cut(obj), {"SUBSURF"})
 
 
 def outward_shell(obj) -> float:
