@@ -10,6 +10,7 @@ frame-to-frame coherence: one-frame blinks of hidden faces, the correction's sec
     .venv/bin/python -m bench.animation      # writes the section of docs/REPORT.md (~3 min)
     .venv/bin/python -m bench.animation beyond   # the motions past the ramps (sample_scenes.motions, ~5 min)
     .venv/bin/python -m bench.animation late     # a correction shown 0-3 frames late (~3 min)
+    .venv/bin/python -m bench.animation room     # the outer room stage against its cap (~3 min)
 """
 
 import sys
@@ -31,14 +32,15 @@ def _mesh(v, f):
     return trimesh.Trimesh(v, f, process=False, validate=False)
 
 
-def play(rig, frames, way):
-    """Resolve the frames in order; per frame (result, seconds, layers after)."""
+def play(rig, frames, way, extra=None):
+    """Resolve the frames in order; per frame (result, seconds, layers after). ``extra``: more of
+    resolve_layers' keywords."""
     kept, last, out = None, None, []
     for matrices in frames:
         bv, gv = rig.frame(matrices)
         body = _mesh(bv, rig.body.faces)
         garments = [_mesh(v, g.faces) for v, g in zip(gv, rig.garments, strict=True)]
-        params = {}
+        params = dict(extra or {})
         if way != "fresh" and kept is not None:
             params["correspondence"] = kept
         if way == "default" and last is not None:
@@ -178,5 +180,47 @@ def late():
                   f"above.\n\n{body}")
 
 
+CAPS = (None, 0.75, 1.0, 2.0)  # the outer room's most lift in gaps (None: the stage off)
+
+
+def room():
+    """The outer room stage against its cap: on the rig's still poses, resolved afresh, the lower
+    layer's faces hidden, the crossing edges left and the largest move; on the walk, frame after
+    frame, the jitter and the worst frame's crossing edges; and the stage's time a frame."""
+    import core.layering.outer_room as outer_room
+
+    rig = Rig()
+    walk = motions(Skeleton(rig))["walk"]
+    rows, saved = [], outer_room.MOST
+    try:
+        for cap in CAPS:
+            outer_room.MOST = cap or saved
+            kw = {"outer_room": cap is not None}
+            hidden, cross, move = [], [], []
+            for pose in ("tpose", "run01", "gym01"):
+                bv, gv = rig.frame(rig.poses[pose])
+                garments = [_mesh(v, g.faces) for v, g in zip(gv, rig.garments, strict=True)]
+                r = resolve_layers(_mesh(bv, rig.body.faces), garments, **kw)
+                layers = [(g.vertices, g.faces) for g in r.garments]
+                hidden.append(int(r.removed_faces[0].sum()))
+                cross.append(int(np.triu(metrics.layer_crossings(layers)).sum()))
+                move.append(max(float(np.linalg.norm(m, axis=1).max()) for m in r.moved) * 1000)
+            played = play(rig, walk, "default", kw)
+            secs = [r.stats.get("outer_room_s", 0.0) for r, *_ in played[1:]]
+            _, j99, jmax, blips = coherence(played)
+            _, wcross, _ = frame_figures(played)
+            rows.append(["off" if cap is None else f"{cap:g} gap", " / ".join(map(str, hidden)),
+                         " / ".join(map(str, cross)), " / ".join(f"{m:.0f}" for m in move),
+                         f"{j99:.2f} / {jmax:.1f}", f"{blips:.2f}", str(wcross), f"{np.median(secs) * 1000:.1f}"])
+            print(" | ".join(rows[-1]), flush=True)
+    finally:
+        outer_room.MOST = saved
+    body = table(["outer room", "lower faces hidden (tpose / run01 / gym01)", "crossing edges left",
+                  "largest move mm", "walk: jitter p99 / max mm", "walk: blips a frame",
+                  "walk: crossing edges (worst frame)", "ms a frame (walk, median)"], rows)
+    write_section("animation_room", "The outer room stage against its cap",
+                  f"{machine()}. {' '.join(room.__doc__.split())}\n\n{body}")
+
+
 if __name__ == "__main__":
-    {"beyond": beyond, "late": late}.get(sys.argv[1] if len(sys.argv) > 1 else "", main)()
+    {"beyond": beyond, "late": late, "room": room}.get(sys.argv[1] if len(sys.argv) > 1 else "", main)()
