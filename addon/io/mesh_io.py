@@ -5,7 +5,7 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from ...core.geometry.vectors import inverse3
+from ...core.geometry.vectors import inverse3, matmul3
 
 
 @dataclass
@@ -81,7 +81,7 @@ def read_mesh(obj, depsgraph=None, world=True, slots=False, shading=False, uvs=F
     mw = np.array(evaluated.matrix_world, dtype=np.float64)
     if world:
         with np.errstate(invalid="ignore", over="ignore"):  # NaN or huge positions: the callers say which mesh
-            v = v @ mw[:3, :3].T + mw[:3, 3]
+            v = matmul3(v, mw[:3, :3].T) + mw[:3, 3]
     if corner is not None:
         corner = world_normals(corner, mw) if world else corner
         corner = corner.reshape(-1, 3, 3)
@@ -117,7 +117,7 @@ def _plain_smooth(mesh) -> bool:
 def world_normals(normals, matrix_world):
     """(n, 3) object-space normals turned into world space (the inverse transpose of the matrix,
     so a non-uniform scale keeps them normal to the surface), made unit."""
-    n = normals @ inverse3(np.asarray(matrix_world, float)[:3, :3])
+    n = matmul3(normals, inverse3(np.asarray(matrix_world, float)[:3, :3]))
     length = np.linalg.norm(n, axis=1, keepdims=True)
     return np.divide(n, length, out=np.zeros_like(n), where=length > 0)
 

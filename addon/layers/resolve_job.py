@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...core.geometry.vectors import cross, inverse3, norms, rows, size_of
+from ...core.geometry.vectors import cross, inverse3, matmul3, norms, rows
 from ...core.layering.covered_skin import covered_faces
 from ...core.layering.resolve import resolve_layers
 from ...core.layering.segmentation import get_scheme
@@ -171,7 +171,7 @@ def _covered_skin(a, result):
     # garment); and the skin within 1% of the body's size (2 cm on a person) of an opening stays
     gap = result.stats["gap"]
     body_faces = a.triangles[:, ::-1] if result.stats.get("body_inside_out") else a.triangles  # as the resolve took it
-    covered = covered_faces(a.vertices, body_faces, worn, 3.0 * gap, gap, 0.01 * size_of(a.vertices),
+    covered = covered_faces(a.vertices, body_faces, worn, 3.0 * gap, gap, 0.01 * result.stats["body_size"],
                             normals=result.history.body_normals)  # the resolve's, of these faces
     hidden = np.ones(a.n_polygons, dtype=bool)  # a polygon goes when every triangle of it is covered
     np.logical_and.at(hidden, a.triangle_polygon, covered)
@@ -190,7 +190,7 @@ def _faces_inward(a, normals) -> bool:
 def _local(a):
     """MeshArrays' world vertices back in their object's space."""
     m = a.matrix_world
-    return (a.vertices - m[:3, 3]) @ inverse3(m[:3, :3]).T
+    return matmul3(a.vertices - m[:3, 3], inverse3(m[:3, :3]).T)
 
 
 def finish_resolve(scene, job: ResolveJob, output: ResolveOutput) -> ResolveSummary:
@@ -208,7 +208,7 @@ def finish_resolve(scene, job: ResolveJob, output: ResolveOutput) -> ResolveSumm
         faces_hidden.append(int(hidden.sum()))
         # no cage while playback leaves frames to this result: they show it on poses it was not made for
         cage = _local(a) if job.step == 1 else None
-        results.write(scene, obj, results.Shown(moved @ to_local.T, hidden, made_for=made_for, cage=cage))
+        results.write(scene, obj, results.Shown(matmul3(moved, to_local.T), hidden, made_for=made_for, cage=cage))
     if output.skin_hidden is None:  # without Hide Covered Skin the body shows whole
         results.clear(job.body)
     else:  # a result of the body's own, no moves

@@ -10,7 +10,7 @@ import bpy
 import numpy as np
 import trimesh
 
-from ...core.geometry.vectors import inverse3
+from ...core.geometry.vectors import inverse3, matmul3
 from ...core.layering.segmentation import get_scheme, part_of_group, segments_from_groups
 from ..io import mesh_io
 from . import frame_memory, result_stack, results, scene_roles, staleness
@@ -193,7 +193,7 @@ def read_scene(scene, scheme_name, playing=False) -> LayeredScene:
             n = mesh_io.read_point_vectors(g, GLOBAL_NORMAL_ATTRIBUTE, depsgraph)
             # stored in object space; normals turn with the inverse transpose
             g_normals.append(None if n is None or len(n) != len(a.vertices)
-                             else n @ inverse3(a.matrix_world[:3, :3]))
+                             else matmul3(n, inverse3(a.matrix_world[:3, :3])))
     return LayeredScene(body, garments, arrays, parts, source, g_parts, g_normals)
 
 

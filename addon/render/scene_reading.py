@@ -8,7 +8,7 @@ import numpy as np
 
 from ...core.geometry.cache import Cache
 from ...core.geometry.keys import digest
-from ...core.geometry.vectors import inverse3
+from ...core.geometry.vectors import inverse3, matmul3
 from ...core.layering.probes import BodyParts, body_probes
 from ...core.render.layered_trace import LayeredScene
 from ...core.render.mesh_cleaning import finite_part
@@ -39,7 +39,7 @@ def meshes(depsgraph):
         m = np.array(inst.matrix_world, dtype=np.float64)
         normals = (None if a.triangle_normals is None
                    else mesh_io.world_normals(a.triangle_normals.reshape(-1, 3), m).reshape(-1, 3, 3))
-        yield obj, mesh_io.MeshArrays(a.vertices @ m[:3, :3].T + m[:3, 3], a.triangles, a.triangle_polygon,
+        yield obj, mesh_io.MeshArrays(matmul3(a.vertices, m[:3, :3].T) + m[:3, 3], a.triangles, a.triangle_polygon,
                                       a.n_polygons, m, a.triangle_material, a.triangle_uv, normals), True, mats
 
 
@@ -134,7 +134,7 @@ def scene_arrays(depsgraph, layered=True) -> SceneRead:
         layers.append(None if role == "NONE" else (0 if role == "BODY" else obj.deformrt.layer))
         n = mesh_io.read_point_vectors(obj, GLOBAL_NORMAL_ATTRIBUTE, depsgraph) if layered and role != "NONE" else None
         # stored in object space; normals turn with the inverse transpose
-        normals.append(None if n is None or len(n) != len(a.vertices) else n @ inverse3(a.matrix_world[:3, :3]))
+        normals.append(None if n is None or len(n) != len(a.vertices) else matmul3(n, inverse3(a.matrix_world[:3, :3])))
         read.add(obj, a, mats)
         if layered and role == "BODY":
             # no vertex groups: reading them adds a modifier, and a render must not write to the scene

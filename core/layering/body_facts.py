@@ -16,7 +16,7 @@ from ..geometry.topology import topology_of, vertex_adjacency
 from ..geometry.vectors import box, norms, rows
 from ..rays.scene import FEW_RAYS, RayScene
 from ..rays.scene_cache import forget_scenes
-from .correspondence import closest_point_on_triangles, incident_triangles, local_radius, surface_search
+from .correspondence import closest_point_on_triangles, incident_triangles, local_radius, surface_search, vertex_tree
 
 # the last few bodies' facts, by content
 BODIES = Cache(max_entries=4)
@@ -39,7 +39,7 @@ class BodyFacts:
         # own read-only copies: what is kept must not change under the key it is kept by
         self.vertices, self.faces = frozen(vertices), frozen(faces)
         self._normals = self._radius = self._search = self._pieces = self._scene = self._edges = None
-        self._normal_agreement = None
+        self._normal_agreement = self._tree = None
         self._longest = None
         self._topology = None
         self._carried_junctions = {}
@@ -96,6 +96,13 @@ class BodyFacts:
             e = self.topology.edges
             self._longest = float(norms(self.vertices[e[:, 0]] - self.vertices[e[:, 1]]).max(initial=0.0))
         return self._longest
+
+    @property
+    def vertex_tree(self):
+        """correspondence.vertex_tree of the body, for nearest_within (one a frame for every garment)."""
+        if self._tree is None:
+            self._tree = vertex_tree(self.vertices)
+        return self._tree
 
     @property
     def search(self):

@@ -259,7 +259,7 @@ def carried(given, v, body, gap) -> BodyCorrespondence:
         found = None
         if len(drift) <= FEW:  # the carried point bounds the nearest: no body search built this frame
             found = nearest_within(v[drift], d[drift], body_vertices, body_faces, body.vertex_faces, body.longest_edge,
-                                   budget=WITHIN_PAIRS)
+                                   budget=WITHIN_PAIRS, tree=body.vertex_tree)
         if found is None:
             found = nearest_on_surface(v[drift], body_vertices, body_faces, search=body.search)
         take = found.distance < SWITCH * d[drift]

@@ -324,6 +324,7 @@ def _stats(stack, prep, reach, removed, timings) -> dict:
         "scheme": p.scheme.name if p.scheme is not None else None,
         "skirts": list(prep.skirts),
         "offset": p.offset,
+        "body_size": p.diagonal,  # the default offset's measure (vectors.size_of)
         "gap": stack.gap,  # the offset, outward shells and the tessellation allowance
         "probe_distance": reach.per_segment.tolist(),
         "probe_distance_per_vertex": bool(reach.local),
