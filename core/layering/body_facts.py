@@ -12,7 +12,7 @@ from ..geometry.cache import Cache, nbytes
 from ..geometry.keys import digest
 from ..geometry.normals import vertex_normals
 from ..geometry.parallel import tree_workers
-from ..geometry.topology import topology_of, vertex_adjacency
+from ..geometry.topology import faces_key, topology_of, vertex_adjacency
 from ..geometry.vectors import box, norms, rows
 from ..rays.scene import FEW_RAYS, RayScene
 from ..rays.scene_cache import forget_scenes
@@ -35,11 +35,12 @@ def frozen(a):
 class BodyFacts:
     """Lazily computed facts about one body mesh (vertices, faces)."""
 
-    def __init__(self, vertices, faces):
+    def __init__(self, vertices, faces, faces_key=None):
         # own read-only copies: what is kept must not change under the key it is kept by
         self.vertices, self.faces = frozen(vertices), frozen(faces)
+        self._faces_key = faces_key  # topology.faces_key(faces), when known
         self._normals = self._radius = self._search = self._pieces = self._scene = self._edges = None
-        self._normal_agreement = self._tree = None
+        self._normal_agreement = self._tree = self._ends = None
         self._longest = None
         self._topology = None
         self._carried_junctions = {}
@@ -72,17 +73,25 @@ class BodyFacts:
     def edges(self):
         """The body's edges: (sorted vertex pairs, lows, highs), the boxes column by column."""
         if self._edges is None:
-            e = self.topology.edges
-            a, b = self.vertices[e[:, 0]], self.vertices[e[:, 1]]
+            e, (a, b) = self.topology.edges, self._edge_ends
             self._edges = (e, [np.minimum(a[:, i], b[:, i]) for i in range(3)],
                            [np.maximum(a[:, i], b[:, i]) for i in range(3)])
         return self._edges
 
     @property
+    def _edge_ends(self):
+        """The two end points of each of the body's edges (topology.edges), gathered once a frame
+        for both the edges' boxes and the longest edge."""
+        if self._ends is None:
+            e = self.topology.edges
+            self._ends = (rows(self.vertices, e[:, 0]), rows(self.vertices, e[:, 1]))
+        return self._ends
+
+    @property
     def topology(self):
         """The body's MeshTopology (its faces hashed once for this body, not at every ask)."""
         if self._topology is None:
-            self._topology = topology_of(self.faces, len(self.vertices))
+            self._topology = topology_of(self.faces, len(self.vertices), key=self._faces_key)
         return self._topology
 
     @property
@@ -93,8 +102,8 @@ class BodyFacts:
     @property
     def longest_edge(self) -> float:
         if self._longest is None:
-            e = self.topology.edges
-            self._longest = float(norms(self.vertices[e[:, 0]] - self.vertices[e[:, 1]]).max(initial=0.0))
+            a, b = self._edge_ends
+            self._longest = float(norms(a - b).max(initial=0.0))
         return self._longest
 
     @property
@@ -217,10 +226,12 @@ class BodyFacts:
 
 def body_facts(vertices, faces) -> BodyFacts:
     """The BodyFacts of this body, the same object for the same content (the last few bodies)."""
-    key = digest(vertices, faces)
+    # the faces hashed once a frame, for this key and the topology's (a body's faces outweigh its vertices 2:1)
+    fk = faces_key(faces)
+    key = digest(vertices, np.frombuffer(fk, np.uint8))
     found = BODIES.get(key)
     if found is None:
-        found = BodyFacts(vertices, faces)
+        found = BodyFacts(vertices, faces, fk)
         BODIES.put(key, found)
     return found
 

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from ..geometry.vectors import box, size_of
+from ..geometry.vectors import box, cross, rows, size_of
 from .segmentation import Scheme, get_scheme
 
 KNOWN = frozenset({"offset", "probe_distance", "garment_segments", "global_normals", "boundary_pass", "push_behind",
@@ -56,8 +56,8 @@ def inside_out(vertices, faces) -> bool:
     volume is negative and large enough to mean it (a twentieth of its box's; an open sheet of a
     body has next to none and is left as it is). Its normals would point into it, and every
     garment point would take the far side of the body as its own."""
-    tri = vertices[faces]
-    signed = float(np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum()) / 6.0
+    a, b, c = (rows(vertices, faces[:, k]) for k in range(3))
+    signed = float((a * cross(b, c)).sum()) / 6.0  # one sum over every face: no dot per face needed
     lo, hi = box(vertices)
     return signed < -0.05 * float(np.prod(np.maximum(hi - lo, 1e-300)))
 

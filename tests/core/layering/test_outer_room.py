@@ -61,3 +61,43 @@ def test_before_a_subdivision_the_lift_is_one_ring_wider_and_as_high():
     expected = np.array([max([base[v]] + [base[u] for u in neighbours[v]]) for v in range(len(base))])
     assert (wide > 0).sum() > (base > 0).sum()
     np.testing.assert_allclose(wide, expected, atol=1e-12)
+
+
+def test_a_middle_layers_lift_stops_an_offset_short_of_every_layer_over_it():
+    """The cap of a middle layer, against the analytic room: layer 0 a flat sheet asked to go up 20 mm
+    at every vertex, layer 1 a smaller sheet 10 mm over its middle and layer 2 one 15 mm over a
+    corner. Under layer 1 the lift is 10 mm less the offset; under layer 2 alone 15 mm less it; under
+    neither the full 20 mm; and the top layer, with nothing over it, keeps its whole lift."""
+    from types import SimpleNamespace
+
+    from core.layering.outer_room import _below_the_next
+    from core.rays.scene import RayScene
+    from tests.core.layered_cases import sheet
+
+    offset = 0.002
+    v0, f0 = sheet(1.0, 21)
+    v1, f1 = sheet(0.4, 9, z=0.010)
+    v2, f2 = sheet(0.3, 7, z=0.015)
+    v2[:, :2] += 0.28  # over the corner x, y > 0.13 only: it overlaps layer 1 there
+    layers = [(v0, f0), (v1, f1), (v2, f2)]
+    traced = [RayScene(v, f) for v, f in layers]
+    scenes = [SimpleNamespace(full=lambda s=s: s) for s in traced]
+    stack = SimpleNamespace(above=lambda k: [j for j in range(3) if j > k], verts=[v for v, _ in layers],
+                            normals=[np.tile([0.0, 0.0, 1.0], (len(v), 1)) for v, _ in layers],
+                            scenes=scenes, params=SimpleNamespace(offset=offset))
+    lift = np.full(len(v0), 0.020)
+    lift[::7] = 0.0  # not asked: stays
+    got = _below_the_next(stack, 0, lift)
+    x, y = v0[:, 0], v0[:, 1]
+    inside = 1e-9
+    under1 = (np.abs(x) <= 0.2 + inside) & (np.abs(y) <= 0.2 + inside)
+    under2 = (x >= 0.13 - inside) & (x <= 0.43 + inside) & (y >= 0.13 - inside) & (y <= 0.43 + inside)
+    edge = ((np.abs(np.abs(x) - 0.2) < 1e-6) | (np.abs(np.abs(y) - 0.2) < 1e-6) | (np.abs(x - 0.13) < 1e-6)
+            | (np.abs(y - 0.13) < 1e-6) | (np.abs(x - 0.43) < 1e-6) | (np.abs(y - 0.43) < 1e-6))
+    want = np.where(under1, 0.010 - offset, np.where(under2, 0.015 - offset, 0.020))
+    want[::7] = 0.0
+    assert (under1 & under2 & ~edge).any()  # where both lie over it, the nearer one caps
+    clear = ~edge  # on a sheet's rim a ray may graze past it: either answer is right there
+    np.testing.assert_allclose(got[clear], want[clear], atol=1e-9)
+    assert (got[under1 & clear & (lift > 0)] > 0).all() and (got <= lift).all()
+    np.testing.assert_array_equal(_below_the_next(stack, 2, lift[:len(v2)]), lift[:len(v2)])
