@@ -162,16 +162,26 @@ def is_skirt(faces, vertex_segment, scheme="S5", min_share=0.1, vertices=None, b
     thighs. Trouser hems go round one leg each; a waistband lies mostly on the torso. Heights
     are along z."""
     scheme = get_scheme(scheme)
-    seg = np.asarray(vertex_segment)
+    seg = np.asarray(vertex_segment, dtype=np.int64)
+    loops = boundary_loops(np.asarray(faces), len(seg))
+    if not loops or not len(seg):
+        return False
+    # every loop's shares at once: a garment of separate pieces has dozens of loops, asked every frame
     left, right = list(scheme.leg_parts("left")), list(scheme.leg_parts("right"))
-    for loop in boundary_loops(np.asarray(faces), len(seg)):
-        s = seg[loop]
-        on_left, on_right = np.isin(s, left).mean(), np.isin(s, right).mean()
-        if on_left < min_share or on_right < min_share or on_left + on_right < 0.5:
-            continue
+    n = max(int(seg.max(initial=0)), *left, *right, 0) + 1
+    on_left, on_right = np.zeros(n + 1), np.zeros(n + 1)
+    on_left[left], on_right[right] = 1.0, 1.0
+    which = np.repeat(np.arange(len(loops)), [len(loop) for loop in loops])
+    at = seg[np.concatenate(loops)]
+    at = np.where(at >= 0, at, n)  # no part: on neither leg
+    count = np.bincount(which, minlength=len(loops))
+    left_share = np.bincount(which, on_left[at], minlength=len(loops)) / count
+    right_share = np.bincount(which, on_right[at], minlength=len(loops)) / count
+    both = (left_share >= min_share) & (right_share >= min_share) & (left_share + right_share >= 0.5)
+    for k in np.flatnonzero(both):
         if vertices is None or body is None:
             return True
-        z = float(np.asarray(vertices)[loop, 2].mean())
+        z = float(np.asarray(vertices)[loops[k], 2].mean())
         if legs_apart(z, *body, scheme):
             return True
     return False

@@ -100,6 +100,28 @@ def _segments_by_nearest(body, ids, g):
     return ids[cKDTree(body.vertices).query(g.vertices)[1]]
 
 
+def test_a_hem_counts_as_round_both_legs_by_its_own_points_shares_among_many_loops():
+    """Many hems at once (the rings of separate pieces), against each hem's shares counted alone:
+    a hem whose points lie at least 10% on each leg and half on the legs makes a skirt, and only
+    such a hem; points with no part lie on neither leg."""
+    left, right = S5.leg_parts("left")[0], S5.leg_parts("right")[0]
+    rng = np.random.default_rng(3)
+    rings, n = [], 0
+    for size in rng.integers(3, 12, 40):  # forty separate fans, each rim one loop
+        rings.append(np.array([[n + i, n + (i + 1) % size, n + size] for i in range(size)]))
+        n += size + 1
+    faces = np.vstack(rings)
+    loops = [np.unique(r[:, :2]) for r in rings]
+    for trial in range(60):
+        seg = rng.choice([0, 1, left, right, -1], n, p=[0.5, 0.1, 0.15, 0.15, 0.1]) if trial % 2 else \
+            rng.choice([0, left, right], n, p=[0.8, 0.1, 0.1])
+        want = False
+        for loop in loops:
+            on_l, on_r = np.mean(seg[loop] == left), np.mean(seg[loop] == right)
+            want |= bool(on_l >= 0.1 and on_r >= 0.1 and on_l + on_r >= 0.5)
+        assert is_skirt(faces, seg, "S5") == want
+
+
 def test_a_skirt_hem_goes_round_both_legs_and_trouser_hems_do_not():
     body, ids = lower_body()
     skirt = _skirt()
