@@ -1,13 +1,13 @@
 """Resolve on Frame Change in Blender: the rigged MakeHuman character (sample scene makehuman_animated,
 Armature modifiers, Subdivision 1/2 as MakeHuman's proxies are meant to be seen) played over the
-rest-to-run ramp with the handler off and on: what a frame change costs, and what the handler adds,
+rest-to-run ramp (three times) with the handler off and on: what a frame change costs, and what the handler adds,
 with the share of the computing (core's resolve and the covered skin, what a worker thread
 could run); and played as the viewport plays (between the playback start and stop handlers) with
 While Playing, Resolve Every 2 and 3, where the frames between show the last resolve's correction
 (their median is a skipped frame's: the mean says what playback costs); and played in real time,
 resolving in the frame change or in the background (While Playing, Resolve in the Background).
 
-    .venv/bin/python -m bench.playback      # writes the section of docs/REPORT.md (~1 min)
+    .venv/bin/python -m bench.playback      # writes the section of docs/REPORT.md (~4 min)
 """
 
 import time
@@ -18,6 +18,7 @@ from bench.blender import load_package
 from bench.report import machine, table, write_section
 
 FRAMES = range(1, 25)
+TIMED = 3  # runs over FRAMES that each row's figures take in
 
 
 def play(scene, on: bool, resolve_job, handler=None, step=1):
@@ -112,13 +113,15 @@ def main():
         bpy.ops.wm.read_homefile(use_empty=True)
         makehuman.build_animated(subdivision=subdivision)
         scene = bpy.context.scene
-        off, _ = play(scene, False, resolve_job)
+        # this machine drifts by several ms between runs: every figure over TIMED runs of the frames
+        off = np.concatenate([play(scene, False, resolve_job)[0] for _ in range(TIMED)])
         label = "Subdivision 1/2 on every mesh" if subdivision else "no Subdivision"
         ways = [("every frame (frame_set)", None, 1)]
         if subdivision:
             ways += [("playing, Resolve Every 2", handler, 2), ("playing, Resolve Every 3", handler, 3)]
         for way, playing, step in ways:
-            on, core = play(scene, True, resolve_job, playing, step)
+            on, core = (np.concatenate(x) for x in zip(*(play(scene, True, resolve_job, playing, step)
+                                                          for _ in range(TIMED)), strict=True))
             rows.append([label, way, f"{np.median(off):.0f}", f"{np.median(on):.0f} / {on.mean():.0f} / {on.max():.0f}",
                          f"{np.median(on) - np.median(off):.0f} / {on.mean() - off.mean():.0f}",
                          f"{np.median(core):.0f}"])
