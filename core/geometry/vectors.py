@@ -87,8 +87,7 @@ def size_of(vertices) -> float:
     if len(v) < 2:
         return 0.0
     c = [v[:, k] - v[:, k].mean() for k in range(3)]
-    moments = np.array([[float((c[i] * c[j]).sum()) for j in range(3)]
-                        for i in range(3)])
+    moments = np.array([[float((c[i] * c[j]).sum()) for j in range(3)] for i in range(3)])
     _, axes = np.linalg.eigh(moments)
     spans = [float(np.ptp(c[0] * axes[0, k] + c[1] * axes[1, k] + c[2] * axes[2, k])) for k in range(3)]
     return float(np.sqrt(sum(s * s for s in spans)))

@@ -299,7 +299,8 @@ def nearest_within(points, bound, vertices, faces, vertex_faces, longest=None, b
     """The exact nearest surface point of each of a few points whose nearest lies within
     ``bound`` (per point) of it: a body point carried from an earlier frame bounds it. Only the
     triangles with a corner within the bound plus the longest edge can hold it (every point of
-    a triangle is within its longest edge of each corner), so no search structure is built.
+    a triangle is within its longest edge of each corner): those corners come from a k-d tree of
+    the vertices, and nearest_on_surface's search structure is not needed.
     ``vertex_faces``: MeshTopology.vertex_faces of ``faces``; ``longest``: the longest edge, when
     the caller knows it. ``budget``: the most point-corner pairs worth testing so; None is
     returned where the bounds take in more (a search structure is then cheaper). ``tree``:
