@@ -317,11 +317,12 @@ def nearest_within(points, bound, vertices, faces, vertex_faces, longest=None, b
     # the corners within reach, from a k-d tree: a (points x vertices) distance matrix is a matrix
     # product, which wakes the BLAS threads (they then spin on the other core for the rest of the frame)
     tree = vertex_tree(vertices) if tree is None else tree
-    within = tree.query_ball_point(points, (bound + longest) * (1 + 1e-9) + 1e-9 * longest, return_sorted=False,
-                                   workers=tree_workers(n))
-    counts = np.fromiter(map(len, within), np.int64, n)
-    if budget is not None and counts.sum() > budget:
+    reach, workers = (bound + longest) * (1 + 1e-9) + 1e-9 * longest, tree_workers(n)
+    # counted first: listing the pairs of cloth far above a body costs more (8 million: 280 ms, counted 70)
+    if budget is not None and tree.query_ball_point(points, reach, return_length=True, workers=workers).sum() > budget:
         return None
+    within = tree.query_ball_point(points, reach, return_sorted=False, workers=workers)
+    counts = np.fromiter(map(len, within), np.int64, n)
     pi = np.repeat(np.arange(n), counts)
     vi = np.fromiter(itertools.chain.from_iterable(within), np.int64, int(counts.sum()))
     start, tris = vertex_faces
