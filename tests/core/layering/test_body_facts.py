@@ -21,6 +21,11 @@ def test_the_same_body_gives_the_same_facts_and_a_changed_one_new_facts():
     moved = v.copy()
     moved[0, 0] += 1e-9
     assert body_facts(moved, f) is not facts
+    flipped = f[:, ::-1]  # the same points wound the other way: the faces are in the key
+    other = body_facts(v, flipped)
+    assert other is not facts
+    np.testing.assert_array_equal(other.normals, vertex_normals(v, flipped))
+    assert body_facts(v, f.astype(np.int32)) is facts  # Blender's int32 faces: the same body
 
 
 def test_pieces_are_the_connected_parts_of_the_body_mesh():

@@ -62,3 +62,25 @@ def test_skin_within_the_margin_of_an_opening_stays():
     gap = np.abs(centre_z[:, None] - open_z[None, :]).min(axis=1)
     assert not kept_back[gap < 0.03].any()
     assert kept_back[plain & (gap > 0.03 + 0.04)].all()  # (a face spans 4 cm of height)
+
+
+def test_the_margin_keeps_each_face_with_a_corner_near_open_skin_along_the_surface():
+    """Against scipy's Dijkstra over the body's edges from every corner of a face left open: a
+    covered face stays when any of its three corners lies within the margin of one."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import dijkstra
+
+    body = body_tube(n=32)
+    bv, bf = np.asarray(body.vertices), np.asarray(body.faces)
+    cloth = tube(0.152, 0.21, 0.39, grid=(23, 8))
+    margin = 0.03
+    plain = covered_faces(bv, bf, [cloth], 0.03, 0.005)
+    kept = covered_faces(bv, bf, [cloth], 0.03, 0.005, margin=margin)
+    pairs = np.unique(np.sort(np.vstack([bf[:, [0, 1]], bf[:, [1, 2]], bf[:, [2, 0]]]), axis=1), axis=0)
+    length = np.linalg.norm(bv[pairs[:, 0]] - bv[pairs[:, 1]], axis=1)
+    graph = coo_matrix((length, (pairs[:, 0], pairs[:, 1])), shape=(len(bv), len(bv))).tocsr()
+    seeds = np.unique(bf[~plain])
+    near = dijkstra(graph, directed=False, indices=seeds, min_only=True, limit=margin) <= margin
+    want = plain & ~near[bf].any(axis=1)
+    assert (plain & ~want).any() and want.any()  # the margin takes some covered faces back, not all
+    np.testing.assert_array_equal(kept, want)
