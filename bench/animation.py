@@ -12,9 +12,12 @@ on and off within three frames (blips).
     .venv/bin/python -m bench.animation beyond   # the motions past the ramps (sample_scenes.motions, ~5 min)
     .venv/bin/python -m bench.animation late     # a correction shown 0-3 frames late (~3 min)
     .venv/bin/python -m bench.animation room     # the outer room stage against its cap (~3 min)
+    .venv/bin/python -m bench.animation threads  # what a second core buys the resolve (~1 min)
 """
 
+import os
 import sys
+import threading
 import time
 
 import numpy as np
@@ -124,7 +127,8 @@ def main():
 
 
 def beyond():
-    """The default frame to frame on motion past the ramps: a walk, a jog, ramps into harder poses."""
+    """The default frame to frame on motion past the ramps: a walk in place and travelling, a jog,
+    ramps into harder poses."""
     rig = Rig()
     rows = []
     for name, frames in motions(Skeleton(rig)).items():
@@ -147,8 +151,10 @@ def beyond():
     write_section("animation_beyond", "Layered garments in motion past the ramps: a walk, a jog, harder poses",
                   f"{machine()}. The same outfit and measures as the ramps' table, the default frame to frame, on "
                   "motion made by forward kinematics on MakeHuman's skeleton read back from the rig's matrices "
-                  "(sample_scenes.motions): a walk (30 frames a step cycle at 24 fps), a jog (18 frames, longer "
-                  "strides) and 24-frame ramps from rest into six harder poses. The last column is what the "
+                  "(sample_scenes.motions): a walk (30 frames a step cycle at 24 fps), the same walk carried "
+                  "forward at 1.4 m/s and turning 1.5 degrees a frame as a captured walk is, a jog (18 frames, "
+                  "longer strides) and 24-frame ramps from rest into fourteen harder poses. The last column is "
+                  "what the "
                   "smoothness costs: how far easing left the cloth from where each frame alone put it (the "
                   "resolve's stats eased_most and eased_past_gap).\n\n" + body)
 
@@ -226,5 +232,46 @@ def room():
                   f"{machine()}. {' '.join(room.__doc__.split())}\n\n{body}")
 
 
+def threads():
+    """What the second core can buy a frame's resolve: two playbacks of the rest-to-run ramp that
+    share nothing, one after the other and on two threads at once, with the resolve's own ray
+    threads off (DEFORMRT_THREADS=1) so that only the two playbacks compete for the cores. Run
+    together they take the fraction of the time in turn that the Python interpreter's lock leaves
+    them: 0.5 if nothing held it, 1 if everything did. Splitting one frame's stages over two threads
+    can do no better than two whole playbacks that never wait on each other."""
+    saved = os.environ.get("DEFORMRT_THREADS")
+    os.environ["DEFORMRT_THREADS"] = "1"
+    rig = Rig()
+    frames = rig.animations["ramp_run01"]
+    rows = []
+    try:
+        play(rig, frames[:2], "default")
+        for run in range(TIMED):
+            t0 = time.perf_counter()
+            play(rig, frames, "default")
+            play(rig, frames, "default")
+            in_turn = time.perf_counter() - t0
+            both = [threading.Thread(target=play, args=(rig, frames, "default")) for _ in range(2)]
+            t0, c0 = time.perf_counter(), time.process_time()
+            for t in both:
+                t.start()
+            for t in both:
+                t.join()
+            together, cpu = time.perf_counter() - t0, time.process_time() - c0
+            rows.append([str(run + 1), f"{in_turn:.2f}", f"{together:.2f}", f"{together / in_turn:.2f}",
+                         f"{cpu / together:.2f}"])
+            print(" | ".join(rows[-1]), flush=True)
+    finally:
+        if saved is None:
+            os.environ.pop("DEFORMRT_THREADS")
+        else:
+            os.environ["DEFORMRT_THREADS"] = saved
+    body = table(["run", "two playbacks in turn (s)", "on two threads at once (s)", "together / in turn",
+                  "cores busy while together"], rows)
+    write_section("animation_threads", "What a second core buys the resolve",
+                  f"{machine()}. {' '.join(threads.__doc__.split())}\n\n{body}")
+
+
 if __name__ == "__main__":
-    {"beyond": beyond, "late": late, "room": room}.get(sys.argv[1] if len(sys.argv) > 1 else "", main)()
+    ways = {"beyond": beyond, "late": late, "room": room, "threads": threads}
+    ways.get(sys.argv[1] if len(sys.argv) > 1 else "", main)()

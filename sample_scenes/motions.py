@@ -1,6 +1,8 @@
 """Motion beyond the rig's two ramps, for measuring what animators' characters meet: a walk, a jog,
-and 24-frame ramps from rest into harder poses (sitting on the floor, on a chair, squatting, a
-fighting stance, kneeling, arms overhead), posed by forward kinematics on MakeHuman's skeleton.
+the walk carried forward and turning as a captured one is, and 24-frame ramps from rest into
+harder poses (sitting on the floor, on a chair, deep, cross-legged, squatting, hugging the knees, a
+fighting stance, a lunge, kneeling, the splits, arms overhead, flying, bending and twisting),
+posed by forward kinematics on MakeHuman's skeleton.
 
 The rig file holds each bone's skinning matrix per pose, not the skeleton, so the skeleton is read
 back from those matrices: a bone's head moves with its parent's bone (the joint stays attached), so
@@ -104,6 +106,18 @@ HARD_POSES = {
               "lowerarm01.L": _x(-110), "upperarm01.R": _x(-60) @ _y(-30), "lowerarm01.R": _x(-120)},
     "kneel": _mirrored({"upperleg01.L": _x(-10), "lowerleg01.L": _x(100)}) | {"spine04": _x(-10)},
     "arms_up": _mirrored({"upperarm01.L": _y(-150), "clavicle.L": _y(-15)}),
+    # deeper than the rest: the knee's skin folds through itself past 120 degrees (linear blend
+    # skinning), cloth is trapped between thigh and calf or belly, and one side turns alone
+    "deep_seat": _mirrored({"upperleg01.L": _x(-115), "lowerleg01.L": _x(120)}) | {"spine03": _x(-15)},
+    "hug_knees": _mirrored({"upperleg01.L": _x(-135), "lowerleg01.L": _x(145), "upperarm01.L": _x(-60)})
+    | {"spine03": _x(-25), "spine04": _x(-15)},
+    "lunge": {"upperleg01.L": _x(-100), "lowerleg01.L": _x(100), "upperleg01.R": _x(35), "lowerleg01.R": _x(40),
+              "spine03": _x(-10)},
+    "flying": _mirrored({"upperarm01.L": _y(-10) @ _x(-165), "upperleg01.L": _x(15)}) | {"spine03": _x(15)},
+    "side_bend": {"spine03": _z(30), "spine04": _z(15), "upperarm01.L": _y(-160), "upperarm01.R": _y(20)},
+    "split": {"upperleg01.L": _x(-80), "upperleg01.R": _x(70), "lowerleg01.R": _x(10)},
+    "cross_legs": _mirrored({"upperleg01.L": _z(-30) @ _x(-90), "lowerleg01.L": _x(120)}),
+    "twist": {"spine03": _y(35), "spine05": _y(20), "upperarm01.L": _x(-90), "lowerarm01.L": _x(-90)},
 }
 
 
@@ -133,8 +147,25 @@ def gait(frames: int, period: float, stride: float = 1.0) -> list:
     return out
 
 
+def travelling(frames: np.ndarray, speed: float = 1.4, turn: float = 1.5, bob: float = 0.02,
+               period: float = 30.0) -> np.ndarray:
+    """Skinning matrices ``frames`` (frames, bones, 4, 4) of motion in place carried through the
+    world as a captured walk is: forward (-Y) at ``speed`` metres a second at 24 fps, turning by
+    ``turn`` degrees a frame about the vertical, bobbing ``bob`` metres twice a step cycle."""
+    out = np.empty_like(frames)
+    for k, m in enumerate(frames):
+        world = np.eye(4)
+        world[:3, :3] = _z(turn * k)
+        world[:3, 3] = [0.0, -speed / 24.0 * k, bob * np.sin(4.0 * np.pi * k / period)]
+        out[k] = world @ m
+    return out
+
+
 def motions(skeleton: Skeleton) -> dict:
-    """Name -> frames of skinning matrices: a walk (48 frames), a jog (36), and ramps into the hard poses."""
+    """Name -> frames of skinning matrices: a walk (48 frames) in place and travelling, a jog (36),
+    and ramps into the hard poses."""
     turns = {"walk": gait(48, 30.0), "jog": gait(36, 18.0, 1.3)}
     turns |= {f"rest to {name}": ramp(pose) for name, pose in HARD_POSES.items()}
-    return {name: np.stack([skeleton.pose(t) for t in frames]) for name, frames in turns.items()}
+    out = {name: np.stack([skeleton.pose(t) for t in frames]) for name, frames in turns.items()}
+    walk = out.pop("walk")
+    return {"walk": walk, "walk, travelling and turning": travelling(walk), **out}

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from sample_scenes.motions import HARD_POSES, Skeleton, motions, ramp
+from sample_scenes.motions import HARD_POSES, Skeleton, motions, ramp, travelling
 from sample_scenes.posed import Rig
 
 
@@ -79,7 +79,26 @@ def test_a_pose_given_for_the_left_side_is_mirrored_on_the_right(rig_and_skeleto
         v = rig.frame(skeleton.pose(turns))[0]
         return np.abs(v[partner] * [-1.0, 1.0, 1.0] - v).max()
 
-    for pose in ("arms_up", "sit_chair", "kneel"):
+    for pose in ("arms_up", "sit_chair", "kneel", "deep_seat", "hug_knees", "flying", "cross_legs"):
         assert asymmetry(HARD_POSES[pose]) < 0.002, pose
     left = {"upperarm01.L": _y(-150), "clavicle.L": _y(-15)}
     assert asymmetry(_mirrored(left)) < 0.002 and asymmetry(left) > 0.1
+
+
+def test_the_travelling_walk_is_the_walk_carried_rigidly_through_the_world(rig_and_skeleton):
+    """Frame k of the travelling walk puts the body where the walk in place puts it, turned by k
+    turns about the vertical and moved k steps forward (-Y) and by the bob: every vertex against
+    that rigid motion applied to the in-place body (Rotation's own matrices). Carried the other way
+    round (the world move inside the bones') the body comes apart by decimetres."""
+    rig, skeleton = rig_and_skeleton
+    walk = motions(skeleton)["walk"]
+    speed, turn, bob = 1.2, 2.0, 0.03
+    moving = travelling(walk, speed=speed, turn=turn, bob=bob)
+    assert moving.shape == walk.shape
+    for k in (0, 7, 30, 47):
+        still = rig.frame(walk[k])[0]
+        spin = Rotation.from_euler("z", turn * k, degrees=True)
+        shift = np.array([0.0, -speed / 24.0 * k, bob * np.sin(4.0 * np.pi * k / 30.0)])
+        np.testing.assert_allclose(rig.frame(moving[k])[0], spin.apply(still) + shift, atol=1e-6)  # a micrometre
+    wrong = walk[30] @ np.linalg.inv(walk[0][0]) @ moving[30][0]  # the world move on the bones' side
+    assert np.abs(rig.frame(wrong)[0] - rig.frame(moving[30])[0]).max() > 0.1
