@@ -106,8 +106,8 @@ HARD_POSES = {
               "lowerarm01.L": _x(-110), "upperarm01.R": _x(-60) @ _y(-30), "lowerarm01.R": _x(-120)},
     "kneel": _mirrored({"upperleg01.L": _x(-10), "lowerleg01.L": _x(100)}) | {"spine04": _x(-10)},
     "arms_up": _mirrored({"upperarm01.L": _y(-150), "clavicle.L": _y(-15)}),
-    # deeper than the rest: the knee's skin folds through itself past 120 degrees (linear blend
-    # skinning), cloth is trapped between thigh and calf or belly, and one side turns alone
+    # deeper still (past 120 degrees the knee's skin folds through itself under linear blend
+    # skinning, and cloth is trapped between thigh and calf or belly), and poses turning one side
     "deep_seat": _mirrored({"upperleg01.L": _x(-115), "lowerleg01.L": _x(120)}) | {"spine03": _x(-15)},
     "hug_knees": _mirrored({"upperleg01.L": _x(-135), "lowerleg01.L": _x(145), "upperarm01.L": _x(-60)})
     | {"spine03": _x(-25), "spine04": _x(-15)},
