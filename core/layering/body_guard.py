@@ -131,11 +131,10 @@ def keep_clear_cloth_clear(stack, k, before, after, clearance):
 def keep_out_of_body(stack, k) -> None:
     """The body guard on layer k of a LayerStack: where its moves put cloth through the body, they
     are taken back (before the layers under it are fitted to it). A correspondence passed in
-    bounds no distance from below, so there every moved triangle is asked. The layer's scene
-    serves the layers under it next: built here, it is not built twice."""
-    near = np.zeros(len(stack.verts[k])) if stack.params.correspondence[k] is not None else stack.clearance[k]
+    bounds no distance from below, so there every moved triangle is asked (guard_clearance). The
+    layer's scene serves the layers under it next: built here, it is not built twice."""
     kept_out, n_back = back_off(stack.body, Cloth(stack.faces[k], stack.edges[k], stack.scenes[k].full), stack.rest[k],
-                                stack.verts[k], near)
+                                stack.verts[k], stack.guard_clearance(k))
     if n_back:
         stack.moved(k, kept_out)
         stack.backed_off += n_back

@@ -65,6 +65,15 @@ class LayerStack:
         """The garments worn over layer k that take part."""
         return [j for j in self.active if j > k]
 
+    def guard_clearance(self, k) -> np.ndarray:
+        """What the body guard may take for a lower bound on each vertex of layer k's distance from
+        the body: its clearance where the body points were searched this frame, 0 where they came
+        from another frame (a correspondence passed in: its distance bounds from above, and a bound
+        along -n' misses a body part beside the ray, as the floor beside a sphere a sheet slid off)."""
+        if self.params.correspondence[k] is not None:
+            return np.zeros(len(self.verts[k]))
+        return self.clearance[k]
+
     def floor(self, k) -> float:
         """How close layer k may come to the body: the chord allowance, then for each layer from
         the body out to k its share of d, d / (N+1) (N the garments that take part), and the

@@ -240,8 +240,9 @@ def _guard_ease(stack, k, own, smoothed):
     the easing that puts cloth through the body taken back towards ``own`` (body_guard.back_off): a
     correction held from the last frames where the body has just moved under the cloth (cloth
     landing on a collider) would push it in. A vertex eased by m from ``own`` is at least its
-    clearance less m from the body: only edges and triangles that can reach it are asked."""
-    clearance = np.maximum(stack.clearance[k] - norms(smoothed - own), 0.0)
+    clearance less m from the body: only edges and triangles that can reach it are asked (all of
+    them where the body points came from the last frame: guard_clearance)."""
+    clearance = np.maximum(stack.guard_clearance(k) - norms(smoothed - own), 0.0)
     return keep_clear_cloth_clear(stack, k, own, smoothed, clearance)[0]
 
 
