@@ -10,7 +10,7 @@ from scipy.spatial import cKDTree
 
 from ..geometry.cache import Cache, nbytes
 from ..geometry.keys import digest
-from ..geometry.normals import vertex_normals
+from ..geometry.normals import vertex_normals_and_area
 from ..geometry.parallel import tree_workers
 from ..geometry.topology import faces_key, topology_of, vertex_adjacency
 from ..geometry.vectors import box, norms, rows
@@ -40,6 +40,7 @@ class BodyFacts:
         self.vertices, self.faces = frozen(vertices), frozen(faces)
         self._faces_key = faces_key  # topology.faces_key(faces), when known
         self._normals = self._radius = self._search = self._pieces = self._scene = self._edges = None
+        self._area = 0.0
         self._normal_agreement = self._tree = self._ends = None
         self._longest = None
         self._topology = None
@@ -52,8 +53,16 @@ class BodyFacts:
     @property
     def normals(self) -> np.ndarray:
         if self._normals is None:
-            self._normals = frozen(vertex_normals(self.vertices, self.faces))
+            normals, self._area = vertex_normals_and_area(self.vertices, self.faces)
+            self._normals = frozen(normals)
         return self._normals
+
+    @property
+    def area(self) -> float:
+        """The skin's area: the triangles' total (found with the normals)."""
+        if self._normals is None:
+            _ = self.normals
+        return self._area
 
     @property
     def radius(self) -> np.ndarray:

@@ -16,10 +16,9 @@ from typing import NamedTuple
 import numpy as np
 
 from ..geometry.keys import digest
-from ..geometry.vectors import size_of
 from .body_facts import body_facts, frozen
 from .correspondence import nearest_on_surface
-from .parameters import OFFSET_SHARE
+from .parameters import OFFSET_SHARE, body_size
 from .segmentation import get_scheme, is_skirt, skirt_segments
 
 
@@ -157,7 +156,7 @@ def body_probes(objects, layers, given=None, parts: BodyParts | None = None, tra
     top = max((lay for lay in layers if lay is not None), default=0)
     lower = [i for i, hit in enumerate(found) if hit is not None and 0 < layers[i] < top]
     if lower:
-        gap = OFFSET_SHARE * size_of(facts.vertices) if gap is None or gap <= 0 else float(gap)
+        gap = OFFSET_SHARE * body_size(facts) if gap is None or gap <= 0 else float(gap)
         per_part = widen(per_part, np.concatenate([found[i].distance for i in lower]),
                          np.concatenate([part_of[i] for i in lower]), given, gap)
     return [None if p is None else per_part[p] for p in part_of]

@@ -48,7 +48,9 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
         Without it, each connected piece of the body mesh is a part.
     params:
         offset (d, scene units): gap left behind a higher layer; default 0.1% of the
-            body's size (the diagonal of its box in its own axes: about 2 mm on a 1.8 m figure).
+            body's size (the diagonal of its box in its own axes, at most what a standing figure
+            of its skin's area spans: about 2 mm on a 1.8 m figure, in any pose;
+            parameters.body_size).
         probe_distance (l_s): scalar, or one value per segment id (NaN: that part's
             default). Default: with
             body_segments, each part's median local radius (half the chord through the
@@ -71,7 +73,7 @@ def resolve_layers(body, garments, body_segments=None, previous=None, **params) 
         crossed (no face blinks for one frame).
         segment_margin: garment points within sqrt(2) times their body distance plus this
             much of a place where their part meets another (a junction on the body) also trace
-            against that part; default 1% of the body's diagonal (about 2 cm on a person), 0 for strict parts.
+            against that part; default 1% of the body's size (about 2 cm on a person), 0 for strict parts.
         boundary_pass, push_behind, body_guard, outer_room, remove_hidden: bool stages, all on by
             default. The outer room stage (core.outer_room) moves a higher layer's edges out
             where they still pass through a lower layer the body holds.
@@ -325,7 +327,7 @@ def _stats(stack, prep, reach, removed, timings) -> dict:
         "scheme": p.scheme.name if p.scheme is not None else None,
         "skirts": list(prep.skirts),
         "offset": p.offset,
-        "body_size": p.diagonal,  # the default offset's measure (vectors.size_of)
+        "body_size": p.diagonal,  # the default offset's measure (parameters.body_size)
         "gap": stack.gap,  # the offset, outward shells and the tessellation allowance
         "probe_distance": reach.per_segment.tolist(),
         "probe_distance_per_vertex": bool(reach.local),

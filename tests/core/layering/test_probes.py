@@ -75,6 +75,30 @@ def test_the_render_engine_reaches_as_far_as_the_resolve():
     np.testing.assert_array_equal(given[1], 0.02)
 
 
+def test_the_render_engines_default_gap_is_the_resolves_with_the_arms_spread():
+    """Given no gap, the engine widens the thin leg's reach by the resolve's default offset: on the
+    mannequin with its arms spread 1.4 m wide (its box then outgrows what its skin spans, so
+    the body's size is the skin's, parameters.body_size), point for point the resolve's reach."""
+    from core.geometry.vectors import size_of
+    from core.layering.parameters import OFFSET_SHARE
+
+    body, parts = _thin_legged()
+    arms = []
+    for side in (-1, 1):
+        arm = capped_cylinder(0.03, 0.5, n=24)
+        arm.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [0, 1, 0]))
+        arm.apply_translation([side * 0.45, 0.0, 0.95])
+        arms.append(arm)
+    spread = trimesh.util.concatenate([body, *arms])
+    ids = np.concatenate([parts, np.full(len(arms[0].vertices), 1), np.full(len(arms[1].vertices), 2)])
+    trousers = _loose_trousers()
+    resolved = resolve_layers(spread, trousers, body_segments=ids, scheme="S5")
+    assert resolved.stats["offset"] < 0.95 * OFFSET_SHARE * size_of(spread.vertices)
+    objects = [(spread.vertices, spread.faces)] + [(t.vertices, t.faces) for t in trousers]
+    engine = probes.body_probes(objects, [0, 1, 2], parts=probes.BodyParts(ids, "S5"), traced=[True, True, False])
+    np.testing.assert_array_equal(engine[1], np.asarray(resolved.stats["probe_distance"])[resolved.segments[0]])
+
+
 def test_a_points_part_and_radius_are_read_at_its_nearest_body_point():
     """Against brute force: trimesh's exact closest points (triangle and point), their
     barycentric weights, the part of the corner with the largest, the radius blended by them.
