@@ -9,7 +9,7 @@ hidden faces, the correction's second difference (jitter) and vertices whose cor
 on and off within three frames (blips).
 
     .venv/bin/python -m bench.animation      # writes the section of docs/REPORT.md (~1 min)
-    .venv/bin/python -m bench.animation beyond   # the motions past the ramps (sample_scenes.motions, ~5 min)
+    .venv/bin/python -m bench.animation beyond   # the motions past the ramps (sample_scenes.motions, ~12 min)
     .venv/bin/python -m bench.animation late     # a correction shown 0-3 frames late (~3 min)
     .venv/bin/python -m bench.animation room     # the outer room stage against its cap (~3 min)
     .venv/bin/python -m bench.animation threads  # what a second core buys the resolve (~1 min)
@@ -154,8 +154,7 @@ def beyond():
                   "(sample_scenes.motions): a walk (30 frames a step cycle at 24 fps), the same walk carried "
                   "forward at 1.4 m/s and turning 1.5 degrees a frame as a captured walk is, a jog (18 frames, "
                   "longer strides) and 24-frame ramps from rest into fourteen harder poses. The last column is "
-                  "what the "
-                  "smoothness costs: how far easing left the cloth from where each frame alone put it (the "
+                  "what the smoothness costs: how far easing left the cloth from where each frame alone put it (the "
                   "resolve's stats eased_most and eased_past_gap).\n\n" + body)
 
 
